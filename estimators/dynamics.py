@@ -1,0 +1,469 @@
+"""Dynamics models: rigid bodies, orbits, relative motion, precession.
+
+Everything is SI (m, s, rad). Vectors are named with their frame
+(``r_ST_T``: servicer relative to target, in the target frame); see DESIGN.md.
+
+Models
+------
+* torque-free rigid body, Euler's equations (eq. 29 of ``000_…``), with the
+  inertia parametrised by ``k1 = ln(A/B)``, ``k2 = ln(B/C)``,
+  ``J = diag(e^k1, 1, e^-k2)`` (eq. 18 of ``002_…``);
+* Keplerian two-body motion;
+* the 15-state relative model of ``002_…`` (eqs 1–21) in the target frame,
+  driven by the servicer's own absolute state (:func:`relative_rhs`);
+* the nonlinear equations of relative motion in LVLH (eq. 9 of ``000_…``) and
+  the Clohessy–Wiltshire closed form;
+* the axisymmetric precession model of ``000_…`` §V.A (eqs 35–40);
+* a fixed-step RK4 (the papers' ``ode4``) and a tight ``solve_ivp`` (DOP853)
+  for truth.
+
+The relative model and its RK4 loop are compiled with numba: the model is a
+few dozen 3-vector operations, where numpy's per-call overhead (~1 µs per
+operation) would dominate; the compiled version is ~40× faster (see
+``benchmarks/RESULTS.md``), and is the only implementation (no numpy twin).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from estimators.attitude import quat_conjugate, quat_multiply, quat_to_dcm
+
+MU_EARTH = 3.986004418e14
+"""Earth's gravitational parameter, m³/s² (EGM96/WGS-84)."""
+R_EARTH = 6378137.0
+"""Earth's equatorial radius, m (WGS-84)."""
+
+#: Layout of the 15-state relative vector (eq. 17 of ``002_…``).
+STATE_SLICES = {
+    "q_TS": slice(0, 4),
+    "w_ST_T": slice(4, 7),
+    "r_ST_T": slice(7, 10),
+    "v_ST_T": slice(10, 13),
+    "k": slice(13, 15),
+}
+#: Layout of an absolute rigid-body state: position, velocity (ECI), attitude q_IB, rate in B.
+ABS_SLICES = {"r_I": slice(0, 3), "v_I": slice(3, 6), "q_IB": slice(6, 10), "w_B": slice(10, 13)}
+
+
+# ---------------------------------------------------------------- inertia
+
+
+def inertia_from_k(k1, k2) -> np.ndarray:
+    """Normalised principal inertia ``[e^k1, 1, e^-k2]`` (eq. 18 of ``002_…``)."""
+    return np.array([np.exp(k1), 1.0, np.exp(-k2)], dtype=float)
+
+
+def k_from_inertia(J_diag) -> tuple[float, float]:
+    """``k1 = ln(A/B)``, ``k2 = ln(B/C)`` (eq. 19 of ``002_…``) of principal moments ``A, B, C``."""
+    A, B, C = (float(v) for v in J_diag)
+    if min(A, B, C) <= 0:
+        raise ValueError(f"principal moments must be positive, got {J_diag!r}")
+    return float(np.log(A / B)), float(np.log(B / C))
+
+
+def euler_rhs(w_B, J_diag) -> np.ndarray:
+    """Torque-free Euler equations ``J ω̇ + ω × J ω = 0`` (eq. 29 of ``000_…``)."""
+    w = np.asarray(w_B, dtype=float)
+    J = np.asarray(J_diag, dtype=float)
+    return -np.cross(w, J * w) / J
+
+
+def rotational_energy(w_B, J_diag) -> np.ndarray:
+    """``½ ωᵀ J ω``."""
+    w = np.asarray(w_B, dtype=float)
+    return 0.5 * np.sum(np.asarray(J_diag) * w * w, axis=-1)
+
+
+def angular_momentum_norm(w_B, J_diag) -> np.ndarray:
+    """``|J ω|`` (body-frame magnitude equals the inertial one)."""
+    return np.linalg.norm(np.asarray(J_diag) * np.asarray(w_B, dtype=float), axis=-1)
+
+
+def orbital_energy(r_I, v_I, mu: float = MU_EARTH) -> np.ndarray:
+    """Specific orbital energy ``v²/2 − μ/r``."""
+    r = np.linalg.norm(np.asarray(r_I, dtype=float), axis=-1)
+    v = np.linalg.norm(np.asarray(v_I, dtype=float), axis=-1)
+    return 0.5 * v * v - mu / r
+
+
+# ---------------------------------------------------------------- absolute motion
+
+
+def absolute_rhs(t: float, y, J_diag, mu: float = MU_EARTH) -> np.ndarray:
+    """Keplerian orbit plus torque-free attitude, ``y = [r_I, v_I, q_IB, ω_B]`` (13).
+
+    ``q̇_IB = ½ q_IB ⊗ [0, ω_B]`` (DESIGN.md), ``ω̇_B`` from Euler's equations.
+    """
+    y = np.asarray(y, dtype=float)
+    r, v, q, w = y[0:3], y[3:6], y[6:10], y[10:13]
+    a = -mu * r / np.linalg.norm(r) ** 3
+    qdot = 0.5 * quat_multiply(q, np.concatenate([[0.0], w]))
+    return np.concatenate([v, a, qdot, euler_rhs(w, J_diag)])
+
+
+@dataclass(frozen=True)
+class AbsoluteTrajectory:
+    """A body's absolute state sampled at ``t`` (s), with the dense solution kept."""
+
+    t: np.ndarray  #: (N,) s
+    y: np.ndarray  #: (N, 13) ``[r_I, v_I, q_IB, ω_B]``
+    J_diag: np.ndarray  #: (3,) principal inertia (any scale)
+
+    @property
+    def r_I(self) -> np.ndarray:
+        return self.y[:, 0:3]
+
+    @property
+    def v_I(self) -> np.ndarray:
+        return self.y[:, 3:6]
+
+    @property
+    def q_IB(self) -> np.ndarray:
+        return self.y[:, 6:10]
+
+    @property
+    def w_B(self) -> np.ndarray:
+        return self.y[:, 10:13]
+
+
+def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1e-12, atol: float = 1e-12) -> AbsoluteTrajectory:
+    """Truth integration of :func:`absolute_rhs` with DOP853 at tight tolerances.
+
+    Position and velocity are integrated in units scaled by the initial radius and
+    circular speed so that one ``atol`` fits every component.
+    """
+    y0 = np.asarray(y0, dtype=float)
+    t_eval = np.asarray(t_eval, dtype=float)
+    J = np.asarray(J_diag, dtype=float)
+    L = np.linalg.norm(y0[0:3])
+    V = np.sqrt(mu / L)
+    scale = np.concatenate([np.full(3, L), np.full(3, V), np.ones(7)])
+
+    def rhs(t, z):
+        return absolute_rhs(t, z * scale, J, mu) / scale
+
+    sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0 / scale, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+    if not sol.success:
+        raise RuntimeError(f"truth integration failed: {sol.message}")
+    y = sol.y.T * scale
+    y[:, 6:10] /= np.linalg.norm(y[:, 6:10], axis=1, keepdims=True)
+    return AbsoluteTrajectory(t=t_eval, y=y, J_diag=J)
+
+
+def circular_orbit_state(a_m: float, inclination_rad: float = 0.0, raan_rad: float = 0.0, arg_lat_rad: float = 0.0, mu: float = MU_EARTH) -> np.ndarray:
+    """ECI position and velocity ``[r_I, v_I]`` on a circular orbit of radius ``a_m``."""
+    if not (np.isfinite(a_m) and a_m > 0):
+        raise ValueError(f"orbit radius must be positive and finite, got {a_m!r}")
+    u, i, O = arg_lat_rad, inclination_rad, raan_rad
+    v = np.sqrt(mu / a_m)
+    r_pf = a_m * np.array([np.cos(u), np.sin(u), 0.0])
+    v_pf = v * np.array([-np.sin(u), np.cos(u), 0.0])
+    cO, sO, ci, si = np.cos(O), np.sin(O), np.cos(i), np.sin(i)
+    R = np.array([[cO, -sO * ci, sO * si], [sO, cO * ci, -cO * si], [0.0, si, ci]])
+    return np.concatenate([R @ r_pf, R @ v_pf])
+
+
+def lvlh_dcm(r_I, v_I) -> np.ndarray:
+    """``C_LI``: rows are the LVLH axes (x radial, y along-track, z orbit normal) in ECI."""
+    r = np.asarray(r_I, dtype=float)
+    v = np.asarray(v_I, dtype=float)
+    x = r / np.linalg.norm(r, axis=-1, keepdims=True)
+    z = np.cross(r, v)
+    z = z / np.linalg.norm(z, axis=-1, keepdims=True)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=-2)
+
+
+# ---------------------------------------------------------------- relative motion (002_… eqs 1–21)
+
+
+def relative_state(target: np.ndarray, servicer: np.ndarray, k) -> np.ndarray:
+    """The 15-state ``[q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]`` from two absolute states.
+
+    ``q_TS = q_IT* ⊗ q_IS``; ``ω_ST_T = R_TS ω_S_S − ω_T_T`` (eq. 1);
+    ``r_ST_T = R_TI (r_S_I − r_T_I)`` (eq. 8);
+    ``v_ST_T = R_TI (v_S_I − v_T_I) − ω_T_T × r_ST_T`` (eq. 9).
+    ``target`` and ``servicer`` are ``(..., 13)`` absolute states.
+    """
+    tg = np.asarray(target, dtype=float)
+    sv = np.asarray(servicer, dtype=float)
+    q_TS = quat_multiply(quat_conjugate(tg[..., 6:10]), sv[..., 6:10])
+    q_TS = q_TS * np.where(q_TS[..., :1] < 0, -1.0, 1.0)
+    R_TS = quat_to_dcm(q_TS)
+    R_TI = np.swapaxes(quat_to_dcm(tg[..., 6:10]), -1, -2)
+    w_T = tg[..., 10:13]
+    w_ST = np.einsum("...ij,...j->...i", R_TS, sv[..., 10:13]) - w_T
+    r = np.einsum("...ij,...j->...i", R_TI, sv[..., 0:3] - tg[..., 0:3])
+    v = np.einsum("...ij,...j->...i", R_TI, sv[..., 3:6] - tg[..., 3:6]) - np.cross(w_T, r)
+    kk = np.broadcast_to(np.asarray(k, dtype=float), q_TS.shape[:-1] + (2,))
+    return np.concatenate([q_TS, w_ST, r, v, kk], axis=-1)
+
+
+@numba.njit(cache=True, fastmath=False)
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@numba.njit(cache=True)
+def _rot(q):
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    return np.array(
+        [
+            [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+            [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+            [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3],
+        ]
+    )
+
+
+@numba.njit(cache=True)
+def _joint_rhs(z, J_S, mu):
+    """Right-hand side of the joint vector ``[x (15), s (13)]``.
+
+    ``x`` is the relative state of eq. 17; ``s = [r_S_I, v_S_I, q_IS, ω_S_S]``
+    is the servicer's own absolute state (its AODS), propagated alongside so
+    the relative model always sees the servicer at the right instant.
+    """
+    x = z[:15]
+    s = z[15:]
+    out = np.empty(28)
+    q = x[0:4]
+    w = x[4:7]  # ω_ST_T, rate of S relative to T, in T
+    r = x[7:10]
+    v = x[10:13]
+    JT = np.array([np.exp(x[13]), 1.0, np.exp(-x[14])])
+
+    r_SI = s[0:3]
+    q_IS = s[6:10]
+    w_S = s[10:13]
+    R_TS = _rot(q)
+    R_IS = _rot(q_IS)
+    # servicer: Kepler + Euler
+    rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
+    dw_S = -_cross(w_S, J_S * w_S) / J_S
+    out[15:18] = s[3:6]
+    out[18:21] = -mu * r_SI / rs**3
+    out[21] = 0.5 * (-q_IS[1] * w_S[0] - q_IS[2] * w_S[1] - q_IS[3] * w_S[2])
+    out[22] = 0.5 * (q_IS[0] * w_S[0] - q_IS[3] * w_S[1] + q_IS[2] * w_S[2])
+    out[23] = 0.5 * (q_IS[3] * w_S[0] + q_IS[0] * w_S[1] - q_IS[1] * w_S[2])
+    out[24] = 0.5 * (-q_IS[2] * w_S[0] + q_IS[1] * w_S[1] + q_IS[0] * w_S[2])
+    out[25:28] = dw_S
+
+    # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
+    out[0] = 0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3])
+    out[1] = 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2])
+    out[2] = 0.5 * (w[1] * q[0] + w[2] * q[1] - w[0] * q[3])
+    out[3] = 0.5 * (w[2] * q[0] + w[0] * q[2] - w[1] * q[1])
+
+    w_S_T = R_TS @ w_S
+    w_T = w_S_T - w  # eq. 1 solved for the target's own rate
+    dw_T = -_cross(w_T, JT * w_T) / JT  # eq. 6, torque-free
+    # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
+    out[4:7] = _cross(w, w_S_T) + R_TS @ dw_S - dw_T
+
+    # translation, eqs 8–15 via the transport theorem in the rotating T frame
+    r_S_T = R_TS @ (R_IS.T @ r_SI)  # servicer position from Earth's centre, in T
+    r_T_T = r_S_T - r
+    rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
+    a_I_T = -mu * r_S_T / rs**3 + mu * r_T_T / rt**3  # eqs 12–14
+    out[7:10] = v
+    out[10:13] = a_I_T - 2.0 * _cross(w_T, v) - _cross(dw_T, r) - _cross(w_T, _cross(w_T, r))
+    out[13] = 0.0
+    out[14] = 0.0
+    return out
+
+
+def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
+    """Time derivative of the 15-state relative vector (eq. 21 of ``002_…``).
+
+    ``x = [q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]``; ``servicer = [r_S_I, v_S_I,
+    q_IS, ω_S_S]`` is the servicer's absolute state, from its own attitude and
+    orbit determination; ``J_S_diag`` its principal inertia.
+
+    Derivation (done here because eqs 11 and 15 of the converted ``002_…``
+    have sign and frame slips; the exactness test in
+    ``tests/estimators/test_dynamics.py`` checks it against two independent
+    absolute integrations):
+
+    * attitude: ``q_TS`` maps S to T, so ``q̇_TS = ½ q_TS ⊗ [0, ω_{S/T}^S]
+      = ½ [0, ω_ST_T] ⊗ q_TS``;
+    * rate: differentiating ``ω_ST_T = R_TS ω_S_S − ω_T_T`` (eq. 1) in T with
+      ``Ṙ_TS = [ω_ST_T×] R_TS`` gives
+      ``α = ω_ST_T × ω_S_T + R_TS ω̇_S_S − ω̇_T_T`` (eq. 7, since
+      ``ω_ST × ω_S = −ω_T × ω_ST``), with ``ω_T_T = R_TS ω_S_S − ω_ST_T`` and
+      ``ω̇_T_T`` from Euler's equations in ``J = diag(e^k1, 1, e^-k2)``;
+    * translation: with ``r_ST_T = R_TI (r_S − r_T)`` and the transport theorem
+      in the target frame, which rotates at the target's own rate ω_T,
+      ``a_ST_T = R_TI (r̈_S − r̈_T) − 2 ω_T × v − ω̇_T × r − ω_T × (ω_T × r)``,
+      where ``r̈ = −μ r/|r|³`` for each body and
+      ``r_S_T = R_TS R_SI r_S_I``, ``r_T_T = r_S_T − r_ST_T`` (eqs 12–14).
+
+    Accepts ``x`` of shape ``(15,)`` or ``(N, 15)`` (a batch, e.g. sigma points).
+    """
+    x = np.asarray(x, dtype=float)
+    s = np.asarray(servicer, dtype=float)
+    J = np.asarray(J_S_diag, dtype=float)
+    if x.ndim == 1:
+        return _joint_rhs(np.concatenate([x, s]), J, mu)[:15]
+    return np.stack([_joint_rhs(np.concatenate([xi, s]), J, mu)[:15] for xi in x])
+
+
+@numba.njit(cache=True)
+def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
+    n_out = n_steps // stride + 1
+    xs = np.empty((n_out, 15))
+    ss = np.empty((n_out, 13))
+    z = np.empty(28)
+    z[:15] = x0
+    z[15:] = s0
+    xs[0] = x0
+    ss[0] = s0
+    j = 1
+    for i in range(n_steps):
+        k1 = _joint_rhs(z, J_S, mu)
+        k2 = _joint_rhs(z + 0.5 * dt * k1, J_S, mu)
+        k3 = _joint_rhs(z + 0.5 * dt * k2, J_S, mu)
+        k4 = _joint_rhs(z + dt * k3, J_S, mu)
+        z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        if (i + 1) % stride == 0:
+            xs[j] = z[:15]
+            ss[j] = z[15:]
+            j += 1
+    return xs, ss
+
+
+@numba.njit(cache=True)
+def _rk4_batch(X, s0, J_S, mu, dt, n_steps):
+    out = np.empty_like(X)
+    for b in range(X.shape[0]):
+        xs, _ = _rk4_joint(X[b], s0, J_S, mu, dt, n_steps, n_steps)
+        out[b] = xs[-1]
+    return out
+
+
+def propagate_relative(x0, servicer0, J_S_diag, dt: float, n_steps: int, *, stride: int = 1, mu: float = MU_EARTH):
+    """RK4 (``ode4``) of the relative model together with the servicer's state.
+
+    Returns ``(x, s)``: the relative states ``(n_steps//stride + 1, 15)`` and the
+    servicer states ``(…, 13)`` every ``stride`` steps, starting with the
+    initial ones.
+    """
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be positive and finite, got {dt!r}")
+    x0 = np.asarray(x0, dtype=float)
+    s0 = np.asarray(servicer0, dtype=float)
+    if x0.shape != (15,) or s0.shape != (13,):
+        raise ValueError(f"expected x0 of shape (15,) and servicer of shape (13,), got {x0.shape}, {s0.shape}")
+    return _rk4_joint(x0, s0, np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps), int(stride))
+
+
+def propagate_relative_batch(X, servicer0, J_S_diag, dt: float, n_steps: int = 1, mu: float = MU_EARTH) -> np.ndarray:
+    """Propagate a batch of relative states ``X (N, 15)`` by ``n_steps`` RK4 steps of ``dt``.
+
+    Every member sees the same servicer trajectory (from ``servicer0``); used
+    to push sigma points through eq. 21 in the UKF.
+    """
+    X = np.ascontiguousarray(X, dtype=float)
+    return _rk4_batch(X, np.asarray(servicer0, dtype=float), np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps))
+
+
+# ---------------------------------------------------------------- LVLH relative motion (000_… eq. 9)
+
+
+def nerm_rhs(t: float, x, n: float, R_t: float, mu: float = MU_EARTH) -> np.ndarray:
+    """Nonlinear equations of relative motion in LVLH (eq. 9 of ``000_…``).
+
+    ``x = [x, y, z, ẋ, ẏ, ż]`` (m, m/s) of the target relative to the chaser on
+    a circular orbit of radius ``R_t`` and mean motion ``n``; accepts ``(..., 6)``.
+    """
+    x = np.asarray(x, dtype=float)
+    px, py, pz, vx, vy, vz = (x[..., i] for i in range(6))
+    d3 = ((R_t + px) ** 2 + py**2 + pz**2) ** 1.5
+    ax = 2 * n * vy + n * n * px - mu * (R_t + px) / d3 + mu / R_t**2
+    ay = -2 * n * vx + n * n * py - mu * py / d3
+    az = -mu * pz / d3
+    return np.stack([vx, vy, vz, ax, ay, az], axis=-1)
+
+
+def cw_stm(n: float, t) -> np.ndarray:
+    """Clohessy–Wiltshire state-transition matrix ``Φ(t)`` (6×6, or ``(N, 6, 6)``)."""
+    t = np.asarray(t, dtype=float)
+    s, c = np.sin(n * t), np.cos(n * t)
+    z, o = np.zeros_like(t), np.ones_like(t)
+    rows = [
+        [4 - 3 * c, z, z, s / n, 2 * (1 - c) / n, z],
+        [6 * (s - n * t), o, z, -2 * (1 - c) / n, (4 * s - 3 * n * t) / n, z],
+        [z, z, c, z, z, s / n],
+        [3 * n * s, z, z, c, 2 * s, z],
+        [-6 * n * (1 - c), z, z, -2 * s, 4 * c - 3, z],
+        [z, z, -n * s, z, z, c],
+    ]
+    return np.moveaxis(np.array([[np.broadcast_to(e, t.shape) for e in row] for row in rows]), (0, 1), (-2, -1))
+
+
+def cw_propagate(x0, n: float, t) -> np.ndarray:
+    """Closed-form Clohessy–Wiltshire solution ``x(t) = Φ(t) x0``."""
+    return np.einsum("...ij,j->...i", cw_stm(n, t), np.asarray(x0, dtype=float))
+
+
+# ---------------------------------------------------------------- axisymmetric precession (000_… §V.A)
+
+
+def axisymmetric_rhs(t: float, x) -> np.ndarray:
+    """Precession of the symmetry axis in the angular-momentum frame ``I_Γ`` (eqs 35–40).
+
+    ``x = [φ, δ, Γ/A]``: azimuth and elevation (rad) of the symmetry axis
+    ``J = [cos φ cos δ, sin φ cos δ, sin δ]`` in ``I_Γ`` (whose ``j`` axis is
+    along the angular momentum Γ), and ``Γ/A`` (rad/s). From eq. 39,
+    ``J̇ = (Γ/A) j × J`` gives ``J̇_x = (Γ/A) J_z``, ``J̇_y = 0``,
+    ``J̇_z = −(Γ/A) J_x`` (the converted eq. 40 drops the third line), hence
+
+    ``φ̇ = −(Γ/A) sin φ tan δ``, ``δ̇ = −(Γ/A) cos φ``, ``d(Γ/A)/dt = 0``.
+
+    These keep ``J_y = sin φ cos δ`` constant, so that
+    ``e = (Γ/A) √(1 − sin²φ cos²δ)`` (eq. 42) is constant too. Singular at
+    ``δ = ±90°`` (the azimuth is undefined there).
+    """
+    x = np.asarray(x, dtype=float)
+    phi, delta, g = x[..., 0], x[..., 1], x[..., 2]
+    return np.stack([-g * np.sin(phi) * np.tan(delta), -g * np.cos(phi), np.zeros_like(g)], axis=-1)
+
+
+def axis_from_spherical(phi, delta) -> np.ndarray:
+    """Unit vector ``[cos φ cos δ, sin φ cos δ, sin δ]``."""
+    phi = np.asarray(phi, dtype=float)
+    delta = np.asarray(delta, dtype=float)
+    return np.stack([np.cos(phi) * np.cos(delta), np.sin(phi) * np.cos(delta), np.sin(delta)], axis=-1)
+
+
+def spherical_from_axis(u) -> tuple[np.ndarray, np.ndarray]:
+    """Azimuth and elevation (rad) of a (not necessarily unit) vector."""
+    u = np.asarray(u, dtype=float)
+    return np.arctan2(u[..., 1], u[..., 0]), np.arctan2(u[..., 2], np.hypot(u[..., 0], u[..., 1]))
+
+
+# ---------------------------------------------------------------- generic integrators
+
+
+def rk4_step(f, t: float, x, dt: float, *args) -> np.ndarray:
+    """One classical Runge–Kutta step (MATLAB's ``ode4``) of ``ẋ = f(t, x, *args)``."""
+    x = np.asarray(x, dtype=float)
+    k1 = f(t, x, *args)
+    k2 = f(t + 0.5 * dt, x + 0.5 * dt * k1, *args)
+    k3 = f(t + 0.5 * dt, x + 0.5 * dt * k2, *args)
+    k4 = f(t + dt, x + dt * k3, *args)
+    return x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
+def integrate_truth(f, t_eval, x0, *args, rtol: float = 1e-12, atol: float = 1e-12) -> np.ndarray:
+    """``solve_ivp`` (DOP853) of ``ẋ = f(t, x, *args)`` sampled at ``t_eval``; returns ``(N, n)``."""
+    t_eval = np.asarray(t_eval, dtype=float)
+    sol = solve_ivp(lambda t, x: f(t, x, *args), (t_eval[0], t_eval[-1]), np.asarray(x0, dtype=float), method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+    if not sol.success:
+        raise RuntimeError(f"integration failed: {sol.message}")
+    return sol.y.T

@@ -1,0 +1,67 @@
+"""Validation gates on the innovation (``002_…`` §4.3; ``000_…`` eqs 18–20).
+
+The normalised innovation squared ``e² = vᵀ S⁻¹ v`` (eq. 31 of ``002_…``; the
+squared Mahalanobis distance of eq. 18 of ``000_…``) of a correct measurement
+is chi-square distributed with ``m = len(v)`` degrees of freedom. A gate
+accepts it inside the chi-square bounds at confidence ``α``:
+
+* two-sided (``002_…``): ``χ²_m(α/2) < e² < χ²_m(1 − α/2)`` — note the paper
+  names the *rejection* probability α; here ``confidence`` is the probability
+  of accepting a correct measurement, so the bounds are the
+  ``(1 − confidence)/2`` and ``(1 + confidence)/2`` quantiles;
+* one-sided (``000_…``): ``e² ≤ χ²_m(confidence)`` (99 %, ν = 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+from scipy.stats import chi2
+
+
+def normalized_innovation_squared(v, S) -> float:
+    """``e² = vᵀ S⁻¹ v`` by a Cholesky solve; raises if ``S`` is not positive definite."""
+    v = np.asarray(v, dtype=float)
+    S = np.asarray(S, dtype=float)
+    if not np.all(np.isfinite(v)) or not np.all(np.isfinite(S)):
+        raise ValueError("innovation and its covariance must be finite")
+    try:
+        c = cho_factor(S)
+    except np.linalg.LinAlgError as e:
+        raise ValueError("innovation covariance S is not positive definite") from e
+    return float(v @ cho_solve(c, v))
+
+
+def chi_square_bounds(dof: int, confidence: float, two_sided: bool = True) -> tuple[float, float]:
+    """Acceptance interval ``(lower, upper)`` for ``e²`` with ``dof`` degrees of freedom."""
+    if not (0.0 < confidence < 1.0):
+        raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
+    if dof < 1:
+        raise ValueError(f"dof must be at least 1, got {dof!r}")
+    if two_sided:
+        return float(chi2.ppf(0.5 * (1.0 - confidence), dof)), float(chi2.ppf(0.5 * (1.0 + confidence), dof))
+    return 0.0, float(chi2.ppf(confidence, dof))
+
+
+@dataclass(frozen=True)
+class GateDecision:
+    """One gate decision, kept for tables and recordings."""
+
+    t: float  #: s since the scenario epoch
+    source: str  #: which part of the measurement ("attitude", "position", ...)
+    e2: float  #: normalised innovation squared
+    lower: float
+    upper: float
+    accepted: bool
+    reason: str = ""  #: why it was rejected ("" when accepted)
+
+
+def chi_square_gate(v, S, *, t: float, source: str, confidence: float, two_sided: bool = True) -> GateDecision:
+    """Test one innovation against its chi-square bounds and return the decision."""
+    e2 = normalized_innovation_squared(v, S)
+    lo, hi = chi_square_bounds(len(np.atleast_1d(v)), confidence, two_sided)
+    ok = lo <= e2 <= hi
+    reason = "" if ok else ("e2 above upper bound" if e2 > hi else "e2 below lower bound")
+    return GateDecision(t=float(t), source=source, e2=e2, lower=lo, upper=hi, accepted=ok, reason=reason)
