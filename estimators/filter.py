@@ -1,0 +1,149 @@
+"""What the EKF and the UKF share: the interface, gating per source, and the refusal of NaN/Inf.
+
+Notation follows filterpy and eqs 25–31 of ``002_…``: ``x`` (the full state,
+15 numbers for the relative-navigation model), ``P`` (covariance of the error
+state, 14×14), ``Q`` (``Q_d``), ``y`` and ``S`` (the last innovation and its
+covariance). Two verbs:
+
+* ``predict(u, dt)`` — propagate over ``dt`` seconds; ``u`` is the control input
+  of the process model (the servicer's absolute state from its AODS);
+* ``update(parts, t=...)`` — ``parts`` is a sequence of ``(source, z)`` pairs
+  (:mod:`estimators.measurement`), any subset of the sources of eq. 24 plus
+  an optional prior proxy. Each gated source is tested on its own with the
+  two-sided chi-square gate of §4.3 (:func:`estimators.gates.chi_square_gate`),
+  every decision is appended to ``gate_decisions``, and one update is made
+  with the accepted parts only (``R_d`` restricted to them).
+
+A step whose result would hold NaN or Inf is refused with
+:class:`NonFiniteError` and the filter is left as it was; so is a
+measurement with NaN/Inf in it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from estimators.gates import GateDecision, chi_square_gate
+
+
+class NonFiniteError(ValueError):
+    """A filter step would put NaN or Inf into the state or covariance (refused)."""
+
+
+def _check_covariance(P, n: int, name: str, *, definite: bool) -> np.ndarray:
+    P = np.array(P, dtype=float)
+    if P.ndim == 1:
+        P = np.diag(P)
+    if P.shape != (n, n):
+        raise ValueError(f"{name} must be {n}x{n} (or a length-{n} diagonal), got shape {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise ValueError(f"{name} contains NaN or Inf")
+    if not np.allclose(P, P.T, rtol=1e-10, atol=1e-14):
+        raise ValueError(f"{name} must be symmetric")
+    ev = np.linalg.eigvalsh(P)
+    if definite and ev.min() <= 0:
+        raise ValueError(f"{name} must be positive definite (smallest eigenvalue {ev.min():.3g})")
+    if not definite and ev.min() < -1e-12 * max(1.0, ev.max()):
+        raise ValueError(f"{name} must be positive semi-definite (smallest eigenvalue {ev.min():.3g})")
+    return 0.5 * (P + P.T)
+
+
+class KalmanFilterBase:
+    """Common state and bookkeeping; subclasses implement ``_predict``, ``_innovate``, ``_correct``.
+
+    Parameters
+    ----------
+    model : process model (:class:`~estimators.process_model.RelativeProcessModel`
+        or :class:`~estimators.process_model.LinearProcessModel`): ``propagate``,
+        ``boxplus``/``boxminus`` and sizes ``n_state``/``n_error``.
+    x0 : (n_state,) initial estimate ``x̂_0``.
+    P0 : (n_error, n_error) or its diagonal; initial covariance ``P_0`` (positive definite).
+    Q : (n_error, n_error) or its diagonal; ``Q_d`` per step (positive semi-definite).
+        A callable ``dt -> Q`` is accepted for a step-dependent ``Q_d``.
+    gate_confidence : probability of accepting a correct measurement at each gate
+        (``None``: no gating; every part is used).
+    two_sided : the two-sided test of §4.3 of ``002_…`` (default) or the one-sided one.
+    """
+
+    kind = "base"
+
+    def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, two_sided: bool = True):
+        self.model = model
+        n, m = int(model.n_state), int(model.n_error)
+        x0 = np.array(x0, dtype=float)
+        if x0.shape != (n,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"x0 must be {n} finite numbers, got shape {x0.shape}")
+        if n == 15:
+            x0[0:4] = x0[0:4] / np.linalg.norm(x0[0:4])
+        self.x = x0
+        self.P = _check_covariance(P0, m, "P_0", definite=True)
+        self._Q = Q if callable(Q) else _check_covariance(Q, m, "Q_d", definite=False)
+        if gate_confidence is not None and not (0.0 < gate_confidence < 1.0):
+            raise ValueError(f"gate_confidence must lie in (0, 1) or be None, got {gate_confidence!r}")
+        self.gate_confidence = gate_confidence
+        self.two_sided = two_sided
+        self.y = np.zeros(0)
+        self.S = np.zeros((0, 0))
+        self.innovations: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self.gate_decisions: list[GateDecision] = []
+
+    def Q(self, dt: float) -> np.ndarray:
+        """``Q_d`` for a step of ``dt`` seconds."""
+        if callable(self._Q):
+            return _check_covariance(self._Q(dt), self.model.n_error, "Q_d", definite=False)
+        return self._Q
+
+    # -------------------------------------------------------------- verbs
+
+    def predict(self, u, dt: float) -> None:
+        """Propagate ``x`` and ``P`` over ``dt`` seconds (eq. 26); ``u``: the model's input."""
+        x, P = self._predict(u, float(dt))
+        self._commit(x, P, f"predict over dt={dt}")
+
+    def update(self, parts, *, t: float = float("nan")) -> list[GateDecision]:
+        """Gate each part on its own, then correct with the accepted ones (eqs 27–31).
+
+        Returns the decisions of this update (also appended to ``gate_decisions``).
+        """
+        parts = list(parts)
+        if not parts:
+            return []
+        z = [src.z_chart(zz, self.x) for src, zz in parts]  # validates (NaN, shape) first
+        y, S = self._innovate([p[0] for p in parts], z)
+        sizes = [src.dim for src, _ in parts]
+        edges = np.concatenate([[0], np.cumsum(sizes)])
+        decisions = []
+        keep = np.zeros(edges[-1], dtype=bool)
+        self.innovations = {}
+        for j, (src, _) in enumerate(parts):
+            sl = slice(edges[j], edges[j + 1])
+            self.innovations[src.name] = (y[sl].copy(), S[sl, sl].copy())
+            accepted = True
+            if src.gated and self.gate_confidence is not None:
+                d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence, two_sided=self.two_sided)
+                decisions.append(d)
+                accepted = d.accepted
+            keep[sl] = accepted
+        self.y, self.S = y, S
+        self.gate_decisions.extend(decisions)
+        if keep.any():
+            x, P = self._correct(keep)
+            self._commit(x, P, f"update at t={t}")
+        return decisions
+
+    # -------------------------------------------------------------- helpers
+
+    def _commit(self, x: np.ndarray, P: np.ndarray, what: str) -> None:
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):
+            raise NonFiniteError(f"{self.kind}: {what} would put NaN or Inf into the state or covariance; step refused")
+        self.x = x
+        self.P = 0.5 * (P + P.T)
+
+    def _predict(self, u, dt: float):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _innovate(self, sources, z):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _correct(self, keep: np.ndarray):  # pragma: no cover - abstract
+        raise NotImplementedError

@@ -1,0 +1,161 @@
+"""Measurement models: the pose measurement of eq. 24 of ``002_…`` and the spin-prior proxy.
+
+A measurement *source* is one independently gated part of the measurement
+vector (§4.3 of ``002_…``): the attitude ``q_TS``, the position ``r_ST_T``, or
+the fictitious rate measurement of a spin prior (§6.3). Each source knows,
+in the coordinates of the filters' error state (:mod:`estimators.error_state`),
+
+* ``z_chart(z, x_ref)``: the measured value as a vector about a reference state;
+* ``h_chart(X, x_ref)``: the predicted value of state(s) ``X`` about the same reference;
+* ``jacobian(x)``: ``H = ∂h/∂δx`` (m × 14), for the EKF (eq. 25);
+* ``R``: its noise covariance (part of ``R_d``).
+
+The attitude innovation is the MRP form of eqs 29–30: ``δp̃ = [ỹ_q ⊗ q̂⁻¹]_MRP``
+(scaled to ≈ the rotation vector, see :mod:`estimators.error_state`), so that
+for the EKF ``y = δp̃`` with ``H = [I₃ 0 …]``, and for the UKF each sigma point
+predicts its own ``δp`` about the reference. The position part is linear:
+``h = r_ST_T``, ``H = [0 0 I₃ 0 0]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimators.attitude import quat_to_dcm, skew
+from estimators.error_state import N_ERROR, attitude_error
+
+
+def _cov(R, m: int, name: str) -> np.ndarray:
+    R = np.atleast_2d(np.asarray(R, dtype=float))
+    if R.shape == (1, 1) and m > 1:
+        R = R[0, 0] * np.eye(m)
+    if R.shape != (m, m) or not np.all(np.isfinite(R)) or not np.allclose(R, R.T):
+        raise ValueError(f"{name}: R must be a finite symmetric {m}x{m} matrix, got shape {R.shape}")
+    if np.any(np.linalg.eigvalsh(R) <= 0):
+        raise ValueError(f"{name}: R must be positive definite")
+    return R
+
+
+def _finite(z, shape, name: str) -> np.ndarray:
+    z = np.asarray(z, dtype=float)
+    if z.shape != shape:
+        raise ValueError(f"measurement {name} must have shape {shape}, got {z.shape}")
+    if not np.all(np.isfinite(z)):
+        raise ValueError(f"measurement {name} contains NaN or Inf: {z!r}")
+    return z
+
+
+@dataclass(frozen=True)
+class AttitudeMeasurement:
+    """Relative attitude ``q_TS`` from the pose estimator (first block of eq. 24)."""
+
+    R: np.ndarray  #: (3, 3) rad², covariance of the attitude error (≈ rotation vector)
+    name: str = "attitude"
+    dim: int = 3
+    gated: bool = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "R", _cov(self.R, 3, self.name))
+
+    def z_chart(self, z, x_ref) -> np.ndarray:
+        q = _finite(z, (4,), "q_TS")
+        if abs(np.linalg.norm(q) - 1.0) > 1e-6:
+            raise ValueError(f"measurement q_TS must be a unit quaternion, |q| = {np.linalg.norm(q)!r}")
+        return attitude_error(q, np.asarray(x_ref)[0:4])
+
+    def h_chart(self, X, x_ref) -> np.ndarray:
+        return attitude_error(np.asarray(X)[..., 0:4], np.asarray(x_ref)[0:4])
+
+    def jacobian(self, x) -> np.ndarray:
+        H = np.zeros((3, N_ERROR))
+        H[:, 0:3] = np.eye(3)
+        return H
+
+
+@dataclass(frozen=True)
+class PositionMeasurement:
+    """Relative position ``r_ST_T`` (m) from the pose estimator (second block of eq. 24)."""
+
+    R: np.ndarray  #: (3, 3) m²
+    name: str = "position"
+    dim: int = 3
+    gated: bool = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "R", _cov(self.R, 3, self.name))
+
+    def z_chart(self, z, x_ref) -> np.ndarray:
+        return _finite(z, (3,), "r_ST_T")
+
+    def h_chart(self, X, x_ref) -> np.ndarray:
+        return np.asarray(X)[..., 7:10]
+
+    def jacobian(self, x) -> np.ndarray:
+        H = np.zeros((3, N_ERROR))
+        H[:, 6:9] = np.eye(3)
+        return H
+
+
+@dataclass(frozen=True)
+class TargetRateMeasurement:
+    """A spin prior pushed as a fictitious measurement of the target's rate (§6.3 of ``002_…``).
+
+    The prior is the target's own spin ``ω_T_T`` (what a light curve gives),
+    not the state's relative rate, so ``h(x) = R(q_TS) ω_S_S − ω_ST_T`` (eq. 1
+    solved for ``ω_T_T``) with the servicer's rate ``ω_S_S`` from its AODS, and
+    ``H = [−[(R̂ ω_S)×], −I₃, 0, 0, 0]``. Not gated: it is the fallback when the
+    camera's measurements are.
+    """
+
+    w_S_S: np.ndarray  #: (3,) rad/s, the servicer's rate at this step
+    R: np.ndarray  #: (3, 3) (rad/s)²; ``R_ω = 1e-3 I`` in §6.3
+    name: str = "rate_prior"
+    dim: int = 3
+    gated: bool = False
+
+    def __post_init__(self):
+        object.__setattr__(self, "w_S_S", _finite(self.w_S_S, (3,), "w_S_S"))
+        object.__setattr__(self, "R", _cov(self.R, 3, self.name))
+
+    def z_chart(self, z, x_ref) -> np.ndarray:
+        return _finite(z, (3,), "w_T_T (prior)")
+
+    def h_chart(self, X, x_ref) -> np.ndarray:
+        X = np.asarray(X)
+        return np.einsum("...ij,j->...i", quat_to_dcm(X[..., 0:4]), self.w_S_S) - X[..., 4:7]
+
+    def jacobian(self, x) -> np.ndarray:
+        H = np.zeros((3, N_ERROR))
+        H[:, 0:3] = -skew(quat_to_dcm(np.asarray(x)[0:4]) @ self.w_S_S)
+        H[:, 3:6] = -np.eye(3)
+        return H
+
+
+@dataclass(frozen=True)
+class LinearMeasurement:
+    """``z = H x + noise`` on a vector state (used with :class:`~estimators.process_model.LinearProcessModel`)."""
+
+    H: np.ndarray
+    R: np.ndarray
+    name: str = "linear"
+    gated: bool = True
+
+    def __post_init__(self):
+        H = np.atleast_2d(np.asarray(self.H, dtype=float))
+        object.__setattr__(self, "H", H)
+        object.__setattr__(self, "R", _cov(self.R, H.shape[0], self.name))
+
+    @property
+    def dim(self) -> int:
+        return self.H.shape[0]
+
+    def z_chart(self, z, x_ref) -> np.ndarray:
+        return _finite(np.atleast_1d(z), (self.dim,), self.name)
+
+    def h_chart(self, X, x_ref) -> np.ndarray:
+        return np.asarray(X) @ self.H.T
+
+    def jacobian(self, x) -> np.ndarray:
+        return self.H

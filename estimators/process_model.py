@@ -1,0 +1,261 @@
+"""The filters' process model: eq. 21 of ``002_…`` over one sampling time, with its Jacobian.
+
+``f`` is the RK4 (``ode4``) of the relative dynamics over ``τ_s`` with the
+servicer's absolute state from its AODS (``s = [r_S_I, v_S_I, q_IS, ω_S_S]``
+at the step start) propagated alongside (:mod:`estimators.dynamics`), the
+quaternion normalised at the end.
+
+The EKF's ``F_k = ∂f/∂x`` (eq. 25) is analytic: the continuous Jacobian
+``A = ∂ẋ/∂x`` of eq. 21 (derived in :func:`_jac`) is integrated with the
+same RK4 as the state, ``Φ̇ = A Φ`` evaluated at the RK4 stages. Runge–Kutta
+methods commute with linearisation, so this ``Φ`` is the *exact* Jacobian of
+the discrete map ``f`` (not an approximation of the continuous one), which is
+what the central-difference test in ``tests/estimators/test_process_model.py``
+checks to 1e-6. ``Φ`` (15×15) is then mapped to the 14 error states
+(:mod:`estimators.error_state`): ``F = G_out Φ G_in``. The Jacobian is taken
+in the 15 states first because eq. 21 is written in them; the error-state
+form is what the filter needs (a 15×15 ``P`` would be singular along the
+quaternion's norm).
+
+Compiled with numba like the dynamics it differentiates (a 15×15 Jacobian
+assembled from 3-vectors four times per step: numpy's per-call overhead would
+dominate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from estimators.dynamics import MU_EARTH, _cross, _joint_rhs, _rot, propagate_relative, propagate_relative_batch
+from estimators.error_state import boxminus, boxplus, state_to_error_jacobians
+
+
+@numba.njit(cache=True)
+def _skew(u):
+    return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+
+
+@numba.njit(cache=True)
+def _dRu(q, u):
+    """``∂(R(q) u)/∂q`` (3×4) for ``R(q) = (q0² − |q_v|²) I + 2 q_v q_vᵀ + 2 q0 [q_v×]``."""
+    q0 = q[0]
+    qv = q[1:4]
+    out = np.empty((3, 4))
+    c = _cross(qv, u)
+    d = qv[0] * u[0] + qv[1] * u[1] + qv[2] * u[2]
+    S = _skew(u)
+    for i in range(3):
+        out[i, 0] = 2.0 * (q0 * u[i] + c[i])
+        for j in range(3):
+            out[i, 1 + j] = 2.0 * ((d if i == j else 0.0) + qv[i] * u[j] - u[i] * qv[j] - q0 * S[i, j])
+    return out
+
+
+@numba.njit(cache=True)
+def _jac(z, J_S, mu):
+    """``A = ∂ẋ/∂x`` (15×15) of eq. 21 at the joint vector ``z = [x, s]`` (``s`` is exogenous).
+
+    With ``R = R(q_TS)``, ``ω_T = R ω_S − ω``, ``ω̇_T = E(ω_T)`` (Euler, torque-free):
+
+    * ``q̇ = ½ Ω(ω) q``: ``∂/∂q = ½ Ω(ω)``, ``∂/∂ω = ½ [−q_vᵀ; q0 I − [q_v×]]``;
+    * ``α = ω × Rω_S + R ω̇_S − ω̇_T``: ``∂/∂ω = −[(Rω_S)×] + ∂E/∂ω_T``,
+      ``∂/∂q = [ω×] ∂(Rω_S)/∂q + ∂(Rω̇_S)/∂q − ∂E/∂ω_T ∂(Rω_S)/∂q``,
+      ``∂/∂k = −∂E/∂k``;
+    * ``a = a_I − 2 ω_T × v − ω̇_T × r − ω_T × (ω_T × r)`` with
+      ``a_I = −μ r_S_T/r_S³ + μ r_T_T/|r_T_T|³``, ``r_S_T = R p``, ``r_T_T = R p − r``.
+    """
+    x = z[:15]
+    s = z[15:]
+    q = x[0:4]
+    w = x[4:7]
+    r = x[7:10]
+    v = x[10:13]
+    e1 = np.exp(x[13])
+    em2 = np.exp(-x[14])
+    JT = np.array([e1, 1.0, em2])
+    r_SI = s[0:3]
+    q_IS = s[6:10]
+    w_S = s[10:13]
+    R = _rot(q)
+    R_IS = _rot(q_IS)
+    dw_S = -_cross(w_S, J_S * w_S) / J_S
+    w_S_T = R @ w_S
+    w_T = w_S_T - w
+    dw_T = -_cross(w_T, JT * w_T) / JT
+    # Euler: ω̇0 = c0 ω1 ω2, ω̇1 = c1 ω2 ω0, ω̇2 = c2 ω0 ω1 with J = diag(e^k1, 1, e^-k2)
+    c0 = (1.0 - em2) / e1
+    c1 = em2 - e1
+    c2 = (e1 - 1.0) / em2
+    E = np.array([[0.0, c0 * w_T[2], c0 * w_T[1]], [c1 * w_T[2], 0.0, c1 * w_T[0]], [c2 * w_T[1], c2 * w_T[0], 0.0]])
+    p01 = w_T[1] * w_T[2]
+    p20 = w_T[2] * w_T[0]
+    p01b = w_T[0] * w_T[1]
+    Dk = np.empty((3, 2))
+    Dk[0, 0] = -c0 * p01
+    Dk[1, 0] = -e1 * p20
+    Dk[2, 0] = e1 / em2 * p01b
+    Dk[0, 1] = em2 / e1 * p01
+    Dk[1, 1] = -em2 * p20
+    Dk[2, 1] = c2 * p01b
+
+    A = np.zeros((15, 15))
+    # quaternion kinematics: q̇ = ½ [0, ω] ⊗ q
+    A[0, 1:4] = -0.5 * w
+    A[1:4, 0] = 0.5 * w
+    A[1:4, 1:4] = 0.5 * _skew(w)
+    A[0, 4:7] = -0.5 * q[1:4]
+    A[1:4, 4:7] = 0.5 * (q[0] * np.eye(3) - _skew(q[1:4]))
+
+    dRwS = _dRu(q, w_S)
+    # relative angular acceleration (eq. 7)
+    A[4:7, 0:4] = _skew(w) @ dRwS + _dRu(q, dw_S) - E @ dRwS
+    A[4:7, 4:7] = -_skew(w_S_T) + E
+    A[4:7, 13:15] = -Dk
+
+    # translation (eqs 8-15)
+    A[7:10, 10:13] = np.eye(3)
+    p = R_IS.T @ r_SI
+    r_S_T = R @ p
+    r_T_T = r_S_T - r
+    rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
+    rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
+    G = mu * (np.eye(3) / rt**3 - 3.0 * np.outer(r_T_T, r_T_T) / rt**5)  # ∂(μ y/|y|³)/∂y
+    dRp = _dRu(q, p)
+    wr = w_T[0] * r[0] + w_T[1] * r[1] + w_T[2] * r[2]
+    # total ∂a/∂ω_T, including the path through ω̇_T
+    M = 2.0 * _skew(v) + _skew(r) @ E - wr * np.eye(3) - np.outer(w_T, r) + 2.0 * np.outer(r, w_T)
+    A[10:13, 0:4] = (-mu / rs**3) * dRp + G @ dRp + M @ dRwS
+    A[10:13, 4:7] = -M
+    Sw = _skew(w_T)
+    A[10:13, 7:10] = -G - _skew(dw_T) - Sw @ Sw
+    A[10:13, 10:13] = -2.0 * Sw
+    A[10:13, 13:15] = _skew(r) @ Dk
+    return A
+
+
+@numba.njit(cache=True)
+def _rk4_stm(x0, s0, J_S, mu, dt, n_steps):
+    """RK4 of ``[x, s]`` together with ``Φ̇ = A Φ`` at the same stages; returns ``(x, s, Φ)``."""
+    z = np.empty(28)
+    z[:15] = x0
+    z[15:] = s0
+    Phi = np.eye(15)
+    for _ in range(n_steps):
+        k1 = _joint_rhs(z, J_S, mu)
+        K1 = _jac(z, J_S, mu) @ Phi
+        z2 = z + 0.5 * dt * k1
+        k2 = _joint_rhs(z2, J_S, mu)
+        K2 = _jac(z2, J_S, mu) @ (Phi + 0.5 * dt * K1)
+        z3 = z + 0.5 * dt * k2
+        k3 = _joint_rhs(z3, J_S, mu)
+        K3 = _jac(z3, J_S, mu) @ (Phi + 0.5 * dt * K2)
+        z4 = z + dt * k3
+        k4 = _joint_rhs(z4, J_S, mu)
+        K4 = _jac(z4, J_S, mu) @ (Phi + dt * K3)
+        z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        Phi = Phi + dt / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)
+    return z[:15].copy(), z[15:].copy(), Phi
+
+
+def relative_jacobian(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
+    """Continuous Jacobian ``∂ẋ/∂x`` (15×15) of eq. 21 (the servicer's state is an input)."""
+    z = np.concatenate([np.asarray(x, dtype=float), np.asarray(servicer, dtype=float)])
+    return _jac(z, np.asarray(J_S_diag, dtype=float), float(mu))
+
+
+@dataclass(frozen=True)
+class RelativeProcessModel:
+    """Process model ``f`` of the filters (eq. 22 with eq. 21), on the 14-error-state manifold.
+
+    ``J_S_diag``: the servicer's principal inertia (known to it; any scale).
+    ``n_substeps``: RK4 steps per sampling time (1 = the paper's ``ode4`` at ``τ_s``).
+    The control input ``u`` of the filter interface is the servicer's absolute
+    state ``s`` (13) at the step start.
+    """
+
+    J_S_diag: np.ndarray
+    n_substeps: int = 1
+    mu: float = MU_EARTH
+    n_state: int = field(default=15, init=False)
+    n_error: int = field(default=14, init=False)
+
+    def __post_init__(self):
+        J = np.asarray(self.J_S_diag, dtype=float)
+        if J.shape != (3,) or not np.all(np.isfinite(J)) or np.any(J <= 0):
+            raise ValueError(f"J_S_diag must be three positive principal moments, got {self.J_S_diag!r}")
+        if int(self.n_substeps) < 1:
+            raise ValueError(f"n_substeps must be >= 1, got {self.n_substeps!r}")
+        object.__setattr__(self, "J_S_diag", J)
+
+    boxplus = staticmethod(boxplus)
+    boxminus = staticmethod(boxminus)
+
+    def _h(self, dt: float) -> float:
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be positive and finite, got {dt!r}")
+        return float(dt) / self.n_substeps
+
+    @staticmethod
+    def _normalized(x: np.ndarray) -> np.ndarray:
+        x = np.array(x, dtype=float)
+        x[..., 0:4] /= np.linalg.norm(x[..., 0:4], axis=-1, keepdims=True)
+        return x
+
+    def propagate(self, x, servicer, dt: float) -> np.ndarray:
+        """``x_{k+1} = f(x_k)`` over ``dt`` seconds."""
+        xs, _ = propagate_relative(x, servicer, self.J_S_diag, self._h(dt), self.n_substeps, stride=self.n_substeps, mu=self.mu)
+        return self._normalized(xs[-1])
+
+    def propagate_batch(self, X, servicer, dt: float) -> np.ndarray:
+        """``f`` applied to every row of ``X`` (N, 15) — the UKF's sigma points."""
+        return self._normalized(propagate_relative_batch(X, servicer, self.J_S_diag, self._h(dt), self.n_substeps, mu=self.mu))
+
+    def propagate_with_jacobian(self, x, servicer, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(f(x), F)`` with ``F = ∂(f(x ⊞ δx) ⊟ f(x))/∂δx`` (14×14) at ``δx = 0`` (eq. 25)."""
+        x = np.asarray(x, dtype=float)
+        x1, _, Phi = _rk4_stm(x, np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), self._h(dt), int(self.n_substeps))
+        x1 = self._normalized(x1)
+        G_in, G_out = state_to_error_jacobians(x, x1)
+        return x1, G_out @ Phi @ G_in
+
+
+@dataclass(frozen=True)
+class LinearProcessModel:
+    """``x_{k+1} = F x_k`` on a plain vector state (``⊞``/``⊟`` are ``+``/``−``).
+
+    The textbook case: both filters must reproduce a linear Kalman filter on it.
+    ``F`` may depend on the step length through ``F_of_dt`` (e.g. a
+    constant-velocity model); the control input ``u`` is ignored.
+    """
+
+    F_of_dt: object  #: callable ``dt -> (n, n)`` transition matrix
+
+    def _F(self, dt: float) -> np.ndarray:
+        return np.atleast_2d(np.asarray(self.F_of_dt(dt), dtype=float))
+
+    @property
+    def n_state(self) -> int:
+        return self._F(1.0).shape[0]
+
+    n_error = n_state
+
+    @staticmethod
+    def boxplus(x, dx):
+        return np.asarray(x, dtype=float) + np.asarray(dx, dtype=float)
+
+    @staticmethod
+    def boxminus(x, x_ref):
+        return np.asarray(x, dtype=float) - np.asarray(x_ref, dtype=float)
+
+    def propagate(self, x, u, dt: float) -> np.ndarray:
+        return self._F(dt) @ np.asarray(x, dtype=float)
+
+    def propagate_batch(self, X, u, dt: float) -> np.ndarray:
+        return np.asarray(X, dtype=float) @ self._F(dt).T
+
+    def propagate_with_jacobian(self, x, u, dt: float):
+        F = self._F(dt)
+        return F @ np.asarray(x, dtype=float), F

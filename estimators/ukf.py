@@ -1,0 +1,93 @@
+"""Unscented Kalman filter in the USQUE form (Crassidis & Markley 2003; ``002_…`` §4.2).
+
+The covariance lives on the 14-dimensional error state of
+:mod:`estimators.error_state`: the attitude error is a generalised Rodrigues
+vector (``a = 1``, ``f = 4``, i.e. four times the MRP; eq. 33 of Crassidis &
+Markley) and the quaternion itself is kept outside the sigma points.
+
+Predict:
+
+1. sigma points of the error ``σ_i`` from ``P`` (filterpy's
+   ``MerweScaledSigmaPoints``, default ``α = 1, β = 2, κ = 0``: all weights
+   non-negative, so the covariance stays positive semi-definite with 14 states);
+2. ``χ_i = x̂ ⊞ σ_i`` — quaternion sigma points ``δq(δp_i) ⊗ q̂``;
+3. each ``χ_i`` through eq. 21 (the numba RK4, all at once);
+4. back to errors about the propagated centre, ``δx_i = χ_i⁺ ⊟ χ_0⁺``
+   (attitude: ``δp_i = [q_i ⊗ q_0⁻¹]_MRP``), then mean and covariance with
+   filterpy's ``unscented_transform``, ``P⁻ = Σ W_c (δx_i − δx̄)(…)ᵀ + Q_d``, and
+   ``x̂⁻ = χ_0⁺ ⊞ δx̄``.
+
+Update: sigma points are drawn again from ``(x̂⁻, P⁻)``, so that ``Q_d``
+enters ``P_yy`` and ``P_xy``; each predicts its measurement about the
+reference ``x̂⁻`` (for the attitude ``δp_i``), and the innovation is eqs 29–30:
+``δp̃ = [ỹ_q ⊗ q̂⁻⁻¹]_MRP``, ``v = δp̃ − ŷ``. Then ``K = P_xy P_yy⁻¹``,
+``δx̂ = δx̄ + K v`` (``δx̄ = 0`` about the reference), ``P = P⁻ − K P_yy Kᵀ`` and
+``x̂ = x̂⁻ ⊞ δx̂`` (quaternion normalised, eq. 28).
+
+Two departures from Crassidis & Markley, both so that a linear model gives the
+textbook Kalman filter exactly: ``Q_d`` is added once after the transform
+(they add half of it before the sigma points are drawn as well), and the
+update redraws the sigma points instead of reusing the propagated ones
+(filterpy's ``UnscentedKalmanFilter`` reuses them, which leaves ``Q_d`` out of
+``P_xy``; that is also why its class is not used here, besides its additive
+``x + K y`` update).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
+from scipy.linalg import block_diag, cho_factor, cho_solve
+
+from estimators.filter import KalmanFilterBase
+
+
+class UnscentedKalmanFilter(KalmanFilterBase):
+    """USQUE UKF with the interface of :class:`~estimators.filter.KalmanFilterBase`.
+
+    Extra parameters: ``alpha``, ``beta``, ``kappa`` of the scaled sigma points.
+    """
+
+    kind = "ukf"
+
+    def __init__(self, model, x0, P0, Q, *, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0, **kw):
+        super().__init__(model, x0, P0, Q, **kw)
+        self.points = MerweScaledSigmaPoints(int(model.n_error), alpha=alpha, beta=beta, kappa=kappa)
+
+    def _sigmas(self) -> np.ndarray:
+        """``χ_i = x̂ ⊞ σ_i`` (2n+1, n_state)."""
+        try:
+            dX = self.points.sigma_points(np.zeros(self.P.shape[0]), self.P)
+        except np.linalg.LinAlgError as e:
+            raise ValueError("ukf: covariance P is not positive definite") from e
+        return self.model.boxplus(self.x[None, :], dX)
+
+    def _predict(self, u, dt: float):
+        X = self.model.propagate_batch(self._sigmas(), u, dt)
+        dX = self.model.boxminus(X, X[0])
+        mean, P = unscented_transform(dX, self.points.Wm, self.points.Wc, self.Q(dt))
+        return self.model.boxplus(X[0], mean), P
+
+    def _innovate(self, sources, z):
+        X = self._sigmas()
+        self._dX = self.model.boxminus(X, self.x)
+        Y = np.hstack([src.h_chart(X, self.x) for src in sources])
+        R = block_diag(*[src.R for src in sources])
+        self._ybar, S = unscented_transform(Y, self.points.Wm, self.points.Wc, R)  # P_yy
+        self._dY = Y - self._ybar
+        self._y = np.concatenate(z) - self._ybar  # eq. 30
+        self._S = 0.5 * (S + S.T)
+        return self._y, self._S
+
+    def _correct(self, keep: np.ndarray):
+        Wc = self.points.Wc
+        dxbar = self.points.Wm @ self._dX
+        Pxy = ((self._dX - dxbar) * Wc[:, None]).T @ self._dY[:, keep]
+        S = self._S[np.ix_(keep, keep)]
+        try:
+            K = cho_solve(cho_factor(S), Pxy.T).T  # K = P_xy P_yy⁻¹
+        except np.linalg.LinAlgError as e:
+            raise ValueError("ukf: innovation covariance P_yy is not positive definite") from e
+        x = self.model.boxplus(self.x, dxbar + K @ self._y[keep])
+        P = self.P - K @ S @ K.T
+        return x, P
