@@ -55,7 +55,8 @@ class ExtendedKalmanFilter(KalmanFilterBase):
             K = cho_solve(cho_factor(S), PHt.T).T  # K = P Hᵀ S⁻¹ (S symmetric)
         except np.linalg.LinAlgError as e:
             raise ValueError("ekf: innovation covariance S is not positive definite") from e
+        K[self.consider] = 0.0  # Schmidt-Kalman: considered states are not corrected
         x = self.model.boxplus(self.x, K @ y)
         IKH = np.eye(self.P.shape[0]) - K @ H
-        P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form of P = (I − K H) P⁻
+        P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form of P = (I − K H) P⁻, valid for any gain
         return x, P

@@ -63,11 +63,17 @@ class KalmanFilterBase:
     gate_confidence : probability of accepting a correct measurement at each gate
         (``None``: no gating; every part is used).
     two_sided : the two-sided test of §4.3 of ``002_…`` (default) or the one-sided one.
+    consider : error-state indices that are *considered*, not estimated (Schmidt–Kalman):
+        their gain rows are zero, so their estimate stays put while their
+        uncertainty still enters ``P`` and ``S``. Used for ``k1, k2`` in one-axis
+        tumbles, where the inertia ratios do not affect the motion and are not
+        estimated (§6.1 of ``002_…``); an EKF that estimates them there learns
+        them from its own linearisation errors and becomes overconfident.
     """
 
     kind = "base"
 
-    def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, two_sided: bool = True):
+    def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, two_sided: bool = True, consider=()):
         self.model = model
         n, m = int(model.n_state), int(model.n_error)
         x0 = np.array(x0, dtype=float)
@@ -82,6 +88,9 @@ class KalmanFilterBase:
             raise ValueError(f"gate_confidence must lie in (0, 1) or be None, got {gate_confidence!r}")
         self.gate_confidence = gate_confidence
         self.two_sided = two_sided
+        self.consider = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
+        if self.consider.size and (self.consider.min() < 0 or self.consider.max() >= m):
+            raise ValueError(f"consider indices must lie in [0, {m}), got {consider!r}")
         self.y = np.zeros(0)
         self.S = np.zeros((0, 0))
         self.innovations: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -100,10 +109,13 @@ class KalmanFilterBase:
         x, P = self._predict(u, float(dt))
         self._commit(x, P, f"predict over dt={dt}")
 
-    def update(self, parts, *, t: float = float("nan")) -> list[GateDecision]:
+    def update(self, parts, *, t: float = float("nan"), gate: bool = True) -> list[GateDecision]:
         """Gate each part on its own, then correct with the accepted ones (eqs 27–31).
 
-        Returns the decisions of this update (also appended to ``gate_decisions``).
+        ``gate=False`` uses every part without a test (e.g. while the filter
+        acquires from a poor ``x̂_0``, when a gate would lock out every correct
+        measurement). Returns the decisions of this update (also appended to
+        ``gate_decisions``).
         """
         parts = list(parts)
         if not parts:
@@ -119,7 +131,7 @@ class KalmanFilterBase:
             sl = slice(edges[j], edges[j + 1])
             self.innovations[src.name] = (y[sl].copy(), S[sl, sl].copy())
             accepted = True
-            if src.gated and self.gate_confidence is not None:
+            if gate and src.gated and self.gate_confidence is not None:
                 d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence, two_sided=self.two_sided)
                 decisions.append(d)
                 accepted = d.accepted

@@ -171,13 +171,18 @@ class RelativeProcessModel:
     """Process model ``f`` of the filters (eq. 22 with eq. 21), on the 14-error-state manifold.
 
     ``J_S_diag``: the servicer's principal inertia (known to it; any scale).
-    ``n_substeps``: RK4 steps per sampling time (1 = the paper's ``ode4`` at ``τ_s``).
+    ``max_step_s``: longest RK4 step; a sampling time ``τ_s`` is split into
+    ``ceil(τ_s / max_step_s)`` equal steps. The paper integrates one ``ode4``
+    step per ``τ_s`` (``max_step_s = inf`` here); at ``τ_s = 1`` s in SC1 that
+    step's truncation error is 3e-5 m and 3e-6 m/s per step, which a filter
+    with a small ``Q_d`` cannot absorb (its NEES grows without bound), while
+    0.25 s steps bring it to 1e-7 m (``tests/estimators/test_process_model.py``).
     The control input ``u`` of the filter interface is the servicer's absolute
     state ``s`` (13) at the step start.
     """
 
     J_S_diag: np.ndarray
-    n_substeps: int = 1
+    max_step_s: float = 0.25
     mu: float = MU_EARTH
     n_state: int = field(default=15, init=False)
     n_error: int = field(default=14, init=False)
@@ -186,17 +191,19 @@ class RelativeProcessModel:
         J = np.asarray(self.J_S_diag, dtype=float)
         if J.shape != (3,) or not np.all(np.isfinite(J)) or np.any(J <= 0):
             raise ValueError(f"J_S_diag must be three positive principal moments, got {self.J_S_diag!r}")
-        if int(self.n_substeps) < 1:
-            raise ValueError(f"n_substeps must be >= 1, got {self.n_substeps!r}")
+        if not self.max_step_s > 0:
+            raise ValueError(f"max_step_s must be positive, got {self.max_step_s!r}")
         object.__setattr__(self, "J_S_diag", J)
 
     boxplus = staticmethod(boxplus)
     boxminus = staticmethod(boxminus)
 
-    def _h(self, dt: float) -> float:
+    def _steps(self, dt: float) -> tuple[float, int]:
+        """``(h, n)``: RK4 step and count covering ``dt``."""
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be positive and finite, got {dt!r}")
-        return float(dt) / self.n_substeps
+        n = max(1, int(np.ceil(dt / self.max_step_s - 1e-9)))
+        return float(dt) / n, n
 
     @staticmethod
     def _normalized(x: np.ndarray) -> np.ndarray:
@@ -206,17 +213,20 @@ class RelativeProcessModel:
 
     def propagate(self, x, servicer, dt: float) -> np.ndarray:
         """``x_{k+1} = f(x_k)`` over ``dt`` seconds."""
-        xs, _ = propagate_relative(x, servicer, self.J_S_diag, self._h(dt), self.n_substeps, stride=self.n_substeps, mu=self.mu)
+        h, n = self._steps(dt)
+        xs, _ = propagate_relative(x, servicer, self.J_S_diag, h, n, stride=n, mu=self.mu)
         return self._normalized(xs[-1])
 
     def propagate_batch(self, X, servicer, dt: float) -> np.ndarray:
         """``f`` applied to every row of ``X`` (N, 15) — the UKF's sigma points."""
-        return self._normalized(propagate_relative_batch(X, servicer, self.J_S_diag, self._h(dt), self.n_substeps, mu=self.mu))
+        h, n = self._steps(dt)
+        return self._normalized(propagate_relative_batch(X, servicer, self.J_S_diag, h, n, mu=self.mu))
 
     def propagate_with_jacobian(self, x, servicer, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(f(x), F)`` with ``F = ∂(f(x ⊞ δx) ⊟ f(x))/∂δx`` (14×14) at ``δx = 0`` (eq. 25)."""
         x = np.asarray(x, dtype=float)
-        x1, _, Phi = _rk4_stm(x, np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), self._h(dt), int(self.n_substeps))
+        h, n = self._steps(dt)
+        x1, _, Phi = _rk4_stm(x, np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), h, n)
         x1 = self._normalized(x1)
         G_in, G_out = state_to_error_jacobians(x, x1)
         return x1, G_out @ Phi @ G_in

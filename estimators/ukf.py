@@ -88,6 +88,10 @@ class UnscentedKalmanFilter(KalmanFilterBase):
             K = cho_solve(cho_factor(S), Pxy.T).T  # K = P_xy P_yy⁻¹
         except np.linalg.LinAlgError as e:
             raise ValueError("ukf: innovation covariance P_yy is not positive definite") from e
+        if self.consider.size:
+            K[self.consider] = 0.0  # Schmidt-Kalman: P⁻ − K Pxyᵀ − Pxy Kᵀ + K S Kᵀ holds for any gain
+            P = self.P - K @ Pxy.T - Pxy @ K.T + K @ S @ K.T
+        else:
+            P = self.P - K @ S @ K.T
         x = self.model.boxplus(self.x, dxbar + K @ self._y[keep])
-        P = self.P - K @ S @ K.T
         return x, P

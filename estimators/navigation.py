@@ -1,0 +1,144 @@
+"""Run a relative-navigation filter over a measurement sequence (arrays in, a result out).
+
+:func:`make_filter` builds the EKF or the UKF by name (studies swap them by
+name); :func:`run_navigation` drives it at the sampling time ``τ_s``: at
+every step ``k ≥ 1`` it predicts from ``t_{k−1}`` with the servicer's AODS
+state at ``t_{k−1}``, then updates with the pose measurement taken at ``t_k``
+(if any), gated per source, and with the spin-prior proxy if asked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimators.ekf import ExtendedKalmanFilter
+from estimators.gates import GateDecision
+from estimators.measurement import AttitudeMeasurement, PositionMeasurement
+from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, SpinPrior, rate_proxy
+from estimators.process_model import RelativeProcessModel
+from estimators.tuning import Tuning
+from estimators.ukf import UnscentedKalmanFilter
+
+FILTERS = {"ekf": ExtendedKalmanFilter, "ukf": UnscentedKalmanFilter}
+SOURCES = ("attitude", "position")
+
+
+def make_filter(name: str, model, x0, P0, Q, **kwargs):
+    """``FILTERS[name](model, x0, P0, Q, **kwargs)``; ValueError for an unknown name."""
+    try:
+        cls = FILTERS[name]
+    except KeyError:
+        raise ValueError(f"unknown filter {name!r}; expected one of {sorted(FILTERS)}") from None
+    return cls(model, x0, P0, Q, **kwargs)
+
+
+@dataclass(frozen=True)
+class NavigationRun:
+    """One filter run on the step grid ``t`` (N,).
+
+    ``x`` (N, 15) and ``P`` (N, 14, 14) after each step's update;
+    ``nis[source]`` (N,) the normalised innovation squared ``e²`` of each
+    camera source (NaN where it had no measurement), ``accepted[source]`` (N,)
+    its gate decision, ``proxy_used`` (N,) whether the prior proxy was pushed,
+    ``decisions`` every gate decision in order.
+    """
+
+    filter: str
+    t: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    nis: dict
+    accepted: dict
+    proxy_used: np.ndarray
+    decisions: tuple[GateDecision, ...]
+
+
+def run_navigation(
+    filter_name: str,
+    t,
+    servicer,
+    J_S_diag,
+    t_meas,
+    q_meas,
+    r_meas,
+    *,
+    x0,
+    tuning: Tuning,
+    P0=None,
+    gate_confidence: float | None = 0.99,
+    gate_start_s: float = 0.0,
+    prior: SpinPrior | None = None,
+    proxy: str | None = None,
+    R_w: float = R_OMEGA_PROXY,
+    **filter_kwargs,
+) -> NavigationRun:
+    """Filter the pose measurements ``(t_meas, q_meas (M,4), r_meas (M,3))`` on the grid ``t`` (N,).
+
+    ``servicer`` (N, 13): the servicer's absolute state at each grid time (its
+    AODS); ``t`` must be evenly spaced by ``τ_s``; every measurement time must
+    be a grid time after ``t[0]``. ``x0``/``P0`` (default ``tuning.P_0``) is the
+    initial estimate, e.g. from :func:`estimators.prior.initialize_with_prior`.
+    ``proxy``: ``None``, ``"always"`` or ``"on_reject"`` (needs ``prior``).
+    ``gate_start_s``: the gates test measurements from this time on (s since
+    ``t[0]``); before it every measurement is used (acquisition from ``x̂_0``).
+    """
+    t = np.asarray(t, dtype=float)
+    servicer = np.asarray(servicer, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or servicer.shape != (len(t), 13):
+        raise ValueError(f"t must be (N>=2,) and servicer (N, 13), got {t.shape} and {servicer.shape}")
+    steps = np.diff(t)
+    tau = float(steps[0])
+    if not (tau > 0 and np.allclose(steps, tau, rtol=0, atol=1e-9)):
+        raise ValueError("t must be evenly spaced by the sampling time tau_s > 0")
+    if proxy is not None and proxy not in PROXY_MODES:
+        raise ValueError(f"proxy must be None or one of {PROXY_MODES}, got {proxy!r}")
+    if proxy is not None and prior is None:
+        raise ValueError("the proxy measurement needs a spin prior with a rate")
+    t_meas = np.asarray(t_meas, dtype=float)
+    q_meas = np.asarray(q_meas, dtype=float)
+    r_meas = np.asarray(r_meas, dtype=float)
+    if q_meas.shape != (len(t_meas), 4) or r_meas.shape != (len(t_meas), 3):
+        raise ValueError(f"q_meas must be (M, 4) and r_meas (M, 3) with M = len(t_meas), got {q_meas.shape}, {r_meas.shape}")
+    if not (np.all(np.isfinite(q_meas)) and np.all(np.isfinite(r_meas)) and np.all(np.isfinite(t_meas))):
+        raise ValueError("measurements contain NaN or Inf")
+    k_meas = np.rint((t_meas - t[0]) / tau).astype(int)
+    if np.any(k_meas < 1) or np.any(k_meas >= len(t)) or np.any(np.abs(t[np.clip(k_meas, 0, len(t) - 1)] - t_meas) > 1e-6):
+        raise ValueError("every measurement time must be a grid time after t[0]")
+    meas_at = {int(k): i for i, k in enumerate(k_meas)}
+
+    model = RelativeProcessModel(J_S_diag)
+    filt = make_filter(filter_name, model, x0, tuning.P_0 if P0 is None else P0, tuning.Q_d(tau), gate_confidence=gate_confidence, **filter_kwargs)
+    att = AttitudeMeasurement(R=tuning.R_attitude)
+    pos = PositionMeasurement(R=tuning.R_position)
+
+    n = len(t)
+    xs = np.empty((n, 15))
+    Ps = np.empty((n, 14, 14))
+    nis = {s: np.full(n, np.nan) for s in SOURCES}
+    accepted = {s: np.zeros(n, dtype=bool) for s in SOURCES}
+    proxy_used = np.zeros(n, dtype=bool)
+    xs[0], Ps[0] = filt.x, filt.P
+    for k in range(1, n):
+        filt.predict(servicer[k - 1], tau)
+        parts = []
+        if k in meas_at:
+            i = meas_at[k]
+            parts = [(att, q_meas[i]), (pos, r_meas[i])]
+        if proxy == "always":
+            parts.append(rate_proxy(prior, servicer[k], R_w))
+        gate = t[k] - t[0] >= gate_start_s
+        decisions = filt.update(parts, t=t[k], gate=gate)
+        if k in meas_at:
+            verdict = {d.source: d for d in decisions}
+            for s in SOURCES:
+                y, S = filt.innovations[s]
+                nis[s][k] = verdict[s].e2 if s in verdict else float(y @ np.linalg.solve(S, y))
+                accepted[s][k] = verdict[s].accepted if s in verdict else True
+        proxy_used[k] = proxy == "always"
+        if proxy == "on_reject" and not all(accepted[s][k] for s in SOURCES):
+            filt.update([rate_proxy(prior, servicer[k], R_w)], t=t[k])
+            proxy_used[k] = True
+        xs[k], Ps[k] = filt.x, filt.P
+    return NavigationRun(filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, decisions=tuple(filt.gate_decisions))

@@ -1,0 +1,101 @@
+"""Spin priors in the filter (``002_…`` §5.3, §6): tuning, initialisation, proxy measurement.
+
+A :class:`SpinPrior` is the target's rate in its own principal-axes frame,
+``ω_T_T`` (rad/s), with a 1-σ per axis — what light-curve analysis gives
+(the light-curve issue), or the truth with a percentage error as in §5.3.
+Its three uses, each a switch of the caller:
+
+1. **tuning** — :func:`tuning_for_prior` names the scenario-specific tuning
+   (slow/fast, one/two axes) that the prior points to;
+2. **initialisation** — :func:`initialize_with_prior`: ``ω̂_ST_0`` from the prior
+   and the ``ω`` block of ``P_0`` from its uncertainty (§6.2);
+3. **proxy measurement** — :func:`rate_proxy`: the prior as a fictitious
+   measurement of the target's rate with ``R_ω = 1e-3 I`` (§6.3), pushed at
+   every step (``"always"``) or only while the camera's measurements are
+   rejected or missing (``"on_reject"``).
+
+The state holds the *relative* rate ``ω_ST_T = R_TS ω_S_S − ω_T_T`` (eq. 1),
+so both 2 and 3 go through eq. 1 with the servicer's own rate from its AODS.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from estimators.attitude import quat_to_dcm
+from estimators.measurement import TargetRateMeasurement
+
+PROXY_MODES = ("always", "on_reject")
+#: ``R_ω`` of §6.3, (rad/s)².
+R_OMEGA_PROXY = 1e-3
+
+
+@dataclass(frozen=True)
+class SpinPrior:
+    """The target's spin ``w_T_T_rad_s`` (3,) in its body frame and its 1-σ ``sigma_rad_s`` (3,)."""
+
+    w_T_T_rad_s: np.ndarray
+    sigma_rad_s: np.ndarray
+    source: str = ""  #: where it came from ("truth +5%", a light-curve file, ...)
+
+    def __post_init__(self):
+        if self.w_T_T_rad_s is None:
+            raise ValueError("spin prior has no rate: w_T_T_rad_s must be three numbers (rad/s)")
+        w = np.asarray(self.w_T_T_rad_s, dtype=float)
+        s = np.broadcast_to(np.asarray(self.sigma_rad_s, dtype=float), (3,)).copy() if self.sigma_rad_s is not None else None
+        if w.shape != (3,) or not np.all(np.isfinite(w)):
+            raise ValueError(f"spin prior rate w_T_T_rad_s must be three finite numbers (rad/s), got {self.w_T_T_rad_s!r}")
+        if s is None or not np.all(np.isfinite(s)) or np.any(s <= 0):
+            raise ValueError(f"spin prior sigma_rad_s must be positive (rad/s), got {self.sigma_rad_s!r}")
+        object.__setattr__(self, "w_T_T_rad_s", w)
+        object.__setattr__(self, "sigma_rad_s", s)
+
+    @classmethod
+    def from_truth(cls, w_T_T_true, error_fraction: float) -> "SpinPrior":
+        """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3: 5 %).
+
+        A light curve measures the period, so the error is on the rate's
+        magnitude: ``ω_prior = (1 + e) ω_true``, 1-σ ``e |ω_true|`` per axis.
+        """
+        w = np.asarray(w_T_T_true, dtype=float)
+        if not (np.isfinite(error_fraction) and error_fraction > 0):
+            raise ValueError(f"prior error must be a positive fraction (e.g. 0.05), got {error_fraction!r}")
+        sigma = error_fraction * max(float(np.linalg.norm(w)), 1e-6)
+        return cls((1.0 + error_fraction) * w, np.full(3, sigma), source=f"truth {100 * error_fraction:+.1f}%")
+
+
+def tuning_for_prior(prior: SpinPrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0) -> str:
+    """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of ``002_…``).
+
+    Fast if ``|ω| ≥ fast_rad_s`` (Table 1: slow 0.05, fast 0.2/0.18 rad/s);
+    one-axis if ``ω`` is within ``single_axis_deg`` of a principal axis.
+    """
+    w = prior.w_T_T_rad_s
+    n = float(np.linalg.norm(w))
+    fast = n >= fast_rad_s
+    one_axis = n == 0.0 or np.max(np.abs(w)) / n >= np.cos(np.radians(single_axis_deg))
+    return {(True, False): "sc1", (True, True): "sc2", (False, False): "sc3", (False, True): "sc4"}[(one_axis, fast)]
+
+
+def initialize_with_prior(x0, P0, prior: SpinPrior, servicer) -> tuple[np.ndarray, np.ndarray]:
+    """``x̂_0`` with ``ω̂_ST_0 = R(q̂_TS,0) ω_S_S − ω_prior`` and ``P_0``'s ω block ``diag(σ²)``.
+
+    ``servicer``: the servicer's absolute state (13) at ``t_0``. Cross terms of
+    the ω block with the other states are zeroed.
+    """
+    x0 = np.array(x0, dtype=float)
+    P0 = np.array(P0, dtype=float)
+    w_S = np.asarray(servicer, dtype=float)[10:13]
+    x0[4:7] = quat_to_dcm(x0[0:4] / np.linalg.norm(x0[0:4])) @ w_S - prior.w_T_T_rad_s
+    P0[3:6, :] = 0.0
+    P0[:, 3:6] = 0.0
+    P0[3:6, 3:6] = np.diag(prior.sigma_rad_s**2)
+    return x0, P0
+
+
+def rate_proxy(prior: SpinPrior, servicer, R_w: float = R_OMEGA_PROXY) -> tuple[TargetRateMeasurement, np.ndarray]:
+    """``(source, z)``: the prior as a fictitious measurement of ``ω_T_T`` for ``update``."""
+    src = TargetRateMeasurement(w_S_S=np.asarray(servicer, dtype=float)[10:13], R=R_w * np.eye(3))
+    return src, prior.w_T_T_rad_s
