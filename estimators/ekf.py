@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import block_diag, cho_factor, cho_solve
 
-from estimators.filter import KalmanFilterBase
+from estimators.filter import KalmanFilterBase, NonFiniteError
 
 
 class ExtendedKalmanFilter(KalmanFilterBase):
@@ -37,6 +37,8 @@ class ExtendedKalmanFilter(KalmanFilterBase):
 
     def _predict(self, u, dt: float):
         x, F = self.model.propagate_with_jacobian(self.x, u, dt)  # eqs 25-26
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(F))):
+            raise NonFiniteError(f"ekf: propagating over dt={dt} gave NaN or Inf; step refused")
         return x, F @ self.P @ F.T + self.Q(dt)
 
     def _innovate(self, sources, z):

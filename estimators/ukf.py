@@ -39,7 +39,7 @@ import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 from scipy.linalg import block_diag, cho_factor, cho_solve
 
-from estimators.filter import KalmanFilterBase
+from estimators.filter import KalmanFilterBase, NonFiniteError
 
 
 class UnscentedKalmanFilter(KalmanFilterBase):
@@ -64,6 +64,8 @@ class UnscentedKalmanFilter(KalmanFilterBase):
 
     def _predict(self, u, dt: float):
         X = self.model.propagate_batch(self._sigmas(), u, dt)
+        if not np.all(np.isfinite(X)):
+            raise NonFiniteError(f"ukf: propagating the sigma points over dt={dt} gave NaN or Inf; step refused")
         dX = self.model.boxminus(X, X[0])
         mean, P = unscented_transform(dX, self.points.Wm, self.points.Wc, self.Q(dt))
         return self.model.boxplus(X[0], mean), P
