@@ -1,0 +1,101 @@
+"""Spin priors: the prior object, its three uses, and the 120 s blackout of §6.3 of ``002_…``."""
+
+import numpy as np
+import pytest
+
+from estimators.attitude import quat_to_dcm
+from estimators.error_state import boxplus
+from estimators.measurement import TargetRateMeasurement
+from estimators.navigation import run_navigation
+from estimators.prior import SpinPrior, initialize_with_prior, rate_proxy, tuning_for_prior
+from estimators.tuning import get_tuning
+from perception.simulated_pose import simulate_pose_measurements
+from studies.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
+from studies.scenarios import get_scenario
+
+
+def test_prior_needs_a_rate_and_a_positive_sigma():
+    with pytest.raises(ValueError, match="no rate"):
+        SpinPrior(None, [0.01, 0.01, 0.01])
+    with pytest.raises(ValueError, match="three finite numbers"):
+        SpinPrior([0.0, np.nan, 0.05], 0.01)
+    with pytest.raises(ValueError, match="sigma_rad_s must be positive"):
+        SpinPrior([0.0, 0.0, 0.05], 0.0)
+    with pytest.raises(ValueError, match="positive fraction"):
+        SpinPrior.from_truth([0.0, 0.0, 0.05], -0.05)
+    p = SpinPrior.from_truth([0.0, 0.0, 0.05], 0.05)
+    np.testing.assert_allclose(p.w_T_T_rad_s, [0.0, 0.0, 0.0525])
+    np.testing.assert_allclose(p.sigma_rad_s, 0.0025)
+
+
+@pytest.mark.parametrize("name,expected", [("SC1", "sc1"), ("SC2", "sc2"), ("SC3", "sc3"), ("SC4", "sc4")])
+def test_tuning_by_name_from_the_prior(name, expected):
+    prior = SpinPrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
+    assert tuning_for_prior(prior) == expected
+    get_tuning(expected)  # every name it returns exists
+
+
+def test_initialisation_from_the_prior(truth):
+    tr = truth("SC3", 5.0)
+    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    x0 = tr.x[0].copy()
+    x0[4:7] = 0.0
+    P0 = get_tuning("sc3").P_0
+    x1, P1 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
+    # with the true attitude, ω_ST_0 is the truth's up to the prior's 5 % error (eq. 1)
+    np.testing.assert_allclose(x1[4:7] - tr.x[0, 4:7], -0.05 * tr.target[0, 10:13], atol=1e-12)
+    np.testing.assert_allclose(P1[3:6, 3:6], np.diag(prior.sigma_rad_s**2))
+    np.testing.assert_array_equal(np.delete(np.delete(P1, np.s_[3:6], 0), np.s_[3:6], 1), np.delete(np.delete(P0, np.s_[3:6], 0), np.s_[3:6], 1))
+
+
+def test_proxy_measures_the_target_rate(truth, rng):
+    tr = truth("SC3", 20.0)
+    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    src, z = rate_proxy(prior, tr.servicer[7])
+    assert isinstance(src, TargetRateMeasurement)
+    np.testing.assert_allclose(src.R, 1e-3 * np.eye(3))
+    np.testing.assert_array_equal(z, prior.w_T_T_rad_s)
+    # h(x_true) is the target's own rate in its body frame
+    np.testing.assert_allclose(src.h_chart(tr.x[7], tr.x[7]), tr.target[7, 10:13], atol=1e-12)
+    # H against central differences on the error state
+    x = tr.x[7]
+    H = src.jacobian(x)
+    Hn = np.empty((3, 14))
+    for i in range(14):
+        e = np.zeros(14)
+        e[i] = 1e-6
+        Hn[:, i] = (src.h_chart(boxplus(x, e), x) - src.h_chart(boxplus(x, -e), x)) / 2e-6
+    np.testing.assert_allclose(H, Hn, atol=1e-9)
+    assert np.allclose(quat_to_dcm(x[0:4]) @ tr.servicer[7, 10:13] - x[4:7], tr.target[7, 10:13])
+
+
+def _blackout(truth, name, proxy):
+    """SC1, 240 s at τ_s = 1 s, fault 60–180 s on both parts, prior (+5 %) as initial condition."""
+    tr = truth("SC1", 240.0)
+    m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(1), tau_s=1.0, faults=[(60.0, 120.0)])
+    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    tun = get_tuning("sc1")
+    x0 = np.zeros(15)
+    x0[0] = 1.0
+    x0[13:] = [1.466 * 1.1, -1.439 * 0.9]
+    x0, P0 = initialize_with_prior(x0, tun.P_0, prior, tr.servicer[0])
+    run = run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, P0=P0, tuning=tun,
+                         gate_confidence=0.99, gate_start_s=10.0, prior=prior, proxy=proxy, consider=(12, 13))
+    e = state_errors(run.x, tr.x)
+    fault = (tr.t >= 60.0) & (tr.t < 180.0)
+    after = tr.t >= 180.0
+    w_rms = float(np.sqrt(np.mean(e["w"][fault] ** 2)))
+    reconv = {g: convergence_time(tr.t[after], e[g][after], DEFAULT_THRESHOLDS[g]) for g in ("q", "w", "r", "v")}
+    return w_rms, reconv, run
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name,groups", [("ekf", ("q", "w", "r", "v")), ("ukf", ("q", "w"))])
+def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name, groups):
+    w_none, _, _ = _blackout(truth, name, None)
+    w_proxy, reconv, run = _blackout(truth, name, "on_reject")
+    print(f"{name}: rms ω error over the fault {w_proxy:.4f} rad/s with the proxy, {w_none:.4f} without; reconvergence after the fault (s) {reconv}")
+    assert w_proxy < w_none
+    assert run.proxy_used[(run.t >= 60) & (run.t < 180)].mean() > 0.9  # pushed while the camera is rejected
+    for g in groups:
+        assert reconv[g] <= 30.0, (g, reconv)
