@@ -1,0 +1,59 @@
+"""Metrics of ``002_…`` §6 (convergence time, steady-state RMSE) and NEES/NIS bands."""
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from estimators.attitude import rotvec_to_quat
+from estimators.error_state import boxplus
+from studies import metrics as M
+
+
+def test_convergence_time_is_when_it_stays_below():
+    t = np.arange(10.0) + 100.0
+    m = np.array([5, 3, 0.5, 2, 0.4, 0.3, 0.9, 0.2, 0.1, 0.1])
+    assert M.convergence_time(t, m, 1.0) == 4.0  # below at 2 s but back above at 3 s
+    assert M.convergence_time(t, np.full(10, 0.1), 1.0) == 0.0
+    assert np.isnan(M.convergence_time(t, np.r_[m[:-1], 2.0], 1.0))
+    assert M.steady_state_rmse(t, m, 4.0) == pytest.approx(np.sqrt(np.mean(m[4:] ** 2)))
+    assert np.isnan(M.steady_state_rmse(t, m, np.nan))
+
+
+def test_state_and_filter_magnitudes():
+    x = np.zeros((3, 15))
+    x[:, 0] = 1.0
+    y = x.copy()
+    y[:, 0:4] = rotvec_to_quat(np.array([0.0, 0.0, 0.05]))
+    y[:, 7:10] = [3.0, 4.0, 0.0]
+    e = M.state_errors(x, y)
+    np.testing.assert_allclose(e["q"], 0.05)
+    np.testing.assert_allclose(e["r"], 5.0)
+    np.testing.assert_allclose(e["w"], 0.0)
+    P = np.tile(np.diag(np.repeat([1e-4, 1e-6, 4.0, 1.0, 0.01], [3, 3, 3, 3, 2])), (3, 1, 1))
+    s = M.filter_sigmas(P)
+    np.testing.assert_allclose(s["q"], np.sqrt(3e-4))
+    np.testing.assert_allclose(s["r"], np.sqrt(12.0))
+    res = M.evaluate(np.arange(3.0), y, P, x)
+    assert np.isnan(res["state"]["r"].convergence_time_s)  # 5 m > 1 m threshold throughout
+    assert res["state"]["q"].convergence_time_s == 0.0 and res["state"]["q"].steady_state_rmse == pytest.approx(0.05)
+
+
+def test_nees_of_drawn_errors_is_chi_square_and_band_holds():
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(14, 14))
+    P = A @ A.T + 14 * np.eye(14)
+    L = np.linalg.cholesky(P)
+    x_est = np.tile(np.r_[1.0, np.zeros(14)], (30, 400, 1))
+    x_est[..., 0:4] = rotvec_to_quat(rng.normal(size=(30, 400, 3)) * 0.3)
+    dx = rng.normal(size=(30, 400, 14)) @ L.T * 1e-2
+    x_true = boxplus(x_est, dx)
+    e = M.nees(x_est, np.broadcast_to(P * 1e-4, (30, 400, 14, 14)), x_true)
+    assert np.mean(e) == pytest.approx(14.0, rel=0.02)
+    lo, hi = M.chi_square_band(14, 30, 0.95)
+    assert lo == pytest.approx(chi2.ppf(0.025, 420) / 30) and hi == pytest.approx(chi2.ppf(0.975, 420) / 30)
+    frac = M.fraction_in_band(e, 14)
+    assert 0.92 <= frac <= 0.98  # independent steps: 95 % ± sampling
+    # a 20 % overconfident filter falls out of the band
+    assert M.fraction_in_band(1.2 * e, 14) < 0.5
+    # a subset of states has its own degrees of freedom
+    assert np.mean(M.nees(x_est, np.broadcast_to(P * 1e-4, (30, 400, 14, 14)), x_true, states=np.arange(12))) == pytest.approx(12.0, rel=0.03)
