@@ -25,9 +25,8 @@ multiplicative attitude update. The update uses the Joseph form, as filterpy doe
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import block_diag, cho_factor, cho_solve
 
-from estimators.filter import KalmanFilterBase, NonFiniteError
+from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
 
 
 class ExtendedKalmanFilter(KalmanFilterBase):
@@ -43,7 +42,7 @@ class ExtendedKalmanFilter(KalmanFilterBase):
 
     def _innovate(self, sources, z):
         self._H = np.vstack([src.jacobian(self.x) for src in sources])
-        self._R = block_diag(*[src.R for src in sources])
+        self._R = _block_diag([src.R for src in sources])
         h = np.concatenate([src.h_chart(self.x, self.x) for src in sources])
         self._y = np.concatenate(z) - h
         S = self._H @ self.P @ self._H.T + self._R
@@ -54,9 +53,9 @@ class ExtendedKalmanFilter(KalmanFilterBase):
         PHt = self.P @ H.T
         S = H @ PHt + R
         try:
-            K = cho_solve(cho_factor(S), PHt.T).T  # K = P Hᵀ S⁻¹ (S symmetric)
+            K = np.linalg.solve(S, PHt.T).T  # K = P Hᵀ S⁻¹ (S symmetric)
         except np.linalg.LinAlgError as e:
-            raise ValueError("ekf: innovation covariance S is not positive definite") from e
+            raise ValueError("ekf: innovation covariance S is singular") from e
         K[self.consider] = 0.0  # Schmidt-Kalman: considered states are not corrected
         x = self.model.boxplus(self.x, K @ y)
         IKH = np.eye(self.P.shape[0]) - K @ H

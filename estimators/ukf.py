@@ -37,9 +37,8 @@ from __future__ import annotations
 
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
-from scipy.linalg import block_diag, cho_factor, cho_solve
 
-from estimators.filter import KalmanFilterBase, NonFiniteError
+from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
 
 
 class UnscentedKalmanFilter(KalmanFilterBase):
@@ -74,7 +73,7 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         X = self._sigmas()
         self._dX = self.model.boxminus(X, self.x)
         Y = np.hstack([src.h_chart(X, self.x) for src in sources])
-        R = block_diag(*[src.R for src in sources])
+        R = _block_diag([src.R for src in sources])
         self._ybar, S = unscented_transform(Y, self.points.Wm, self.points.Wc, R)  # P_yy
         self._dY = Y - self._ybar
         self._y = np.concatenate(z) - self._ybar  # eq. 30
@@ -87,9 +86,9 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         Pxy = ((self._dX - dxbar) * Wc[:, None]).T @ self._dY[:, keep]
         S = self._S[np.ix_(keep, keep)]
         try:
-            K = cho_solve(cho_factor(S), Pxy.T).T  # K = P_xy P_yy⁻¹
+            K = np.linalg.solve(S, Pxy.T).T  # K = P_xy P_yy⁻¹ (P_yy symmetric)
         except np.linalg.LinAlgError as e:
-            raise ValueError("ukf: innovation covariance P_yy is not positive definite") from e
+            raise ValueError("ukf: innovation covariance P_yy is singular") from e
         if self.consider.size:
             K[self.consider] = 0.0  # Schmidt-Kalman: P⁻ − K Pxyᵀ − Pxy Kᵀ + K S Kᵀ holds for any gain
             P = self.P - K @ Pxy.T - Pxy @ K.T + K @ S @ K.T
