@@ -1,7 +1,6 @@
 """Shared fixtures of the studies tests: one quick truth study run on a local Dask cluster."""
 
 import os
-import sys
 from pathlib import Path
 
 import pytest
@@ -9,7 +8,6 @@ import pytest
 from studies.cli import main
 
 REPO = Path(__file__).resolve().parents[2]
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 @pytest.fixture(scope="session")
