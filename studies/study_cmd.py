@@ -82,7 +82,11 @@ STUDIES: dict[str, StudyDefinition] = {
 
 
 def get_study(name: str) -> StudyDefinition:
+    """The registered study ``name``; ValueError naming the runnable ones otherwise."""
     if name not in STUDIES:
+        if default_config_path(name).is_file():
+            raise ValueError(f"study {name!r} has a config ({default_config_path(name).name}) but no runner is registered "
+                             f"in this installation yet; runnable studies: {', '.join(STUDIES)}")
         raise ValueError(f"unknown study {name!r}; known studies: {', '.join(STUDIES)}")
     return STUDIES[name]
 
@@ -118,6 +122,8 @@ def run_study(name: str, *, config_path: Path | None = None, quick: bool = False
     study = get_study(name)
     check_scheduler(scheduler)
     check_workers(workers)
+    if scheduler is not None and workers is not None:
+        raise ValueError("--workers sizes the local cluster; it cannot be combined with --scheduler (size the remote cluster there)")
     config = study.load(config_path, quick=quick)
     specs = study.expand(config)
     out = Path(out) if out is not None else default_out_dir(name)

@@ -84,6 +84,7 @@ def test_bad_config_one_line_naming_the_field(tmp_path, capsys, edit, message):
         (["truth", "--workers", "0"], "--workers must be a positive integer"),
         (["truth", "--scheduler", "localhost:8786"], "--scheduler must be of the form tcp://HOST:PORT"),
         (["truth", "--config", "/nonexistent/x.toml"], "config file /nonexistent/x.toml does not exist"),
+        (["truth", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "cannot be combined with --scheduler"),
     ],
 )
 def test_bad_command_line(tmp_path, capsys, args, message):
@@ -92,6 +93,15 @@ def test_bad_command_line(tmp_path, capsys, args, message):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not out.exists()
+
+
+def test_study_with_a_config_but_no_runner(tmp_path, capsys):
+    pending = [n for n in PAPER_STUDIES if n not in STUDIES]
+    if not pending:
+        pytest.skip("every paper study is registered")
+    assert main(["study", pending[0], "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"study {pending[0]!r} has a config ({pending[0]}.toml) but no runner is registered" in err[0]
 
 
 def test_cli_process_prints_one_line_and_no_traceback(tmp_path, lcnav_env):
