@@ -35,6 +35,7 @@ from estimators.attitude import attitude_angle, random_quaternion
 from estimators.dynamics import angular_momentum_norm, propagate_relative, rotational_energy
 from studies.blueprint import run_blueprint, send_estimate, send_truth
 from studies.config import ConfigError, Field, StudyConfig
+from studies.io import atomic_path
 from studies.recording import recording
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.simulate_cmd import log_truth
@@ -128,7 +129,10 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
 
 
 def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Table]:
-    """Per scenario: runs, range, RK4 errors (mean with a t interval, median with a bootstrap interval, worst), drifts."""
+    """Per scenario: runs, range, RK4 errors (mean with a t interval, median with a bootstrap interval, worst), drifts.
+
+    Also draws ``rk4_error.png`` into ``out_dir``.
+    """
     runs = runs.assign(rk4_pos_err_max_mm=runs["rk4_pos_err_max_m"] * 1e3, rk4_att_err_max_urad=runs["rk4_att_err_max_rad"] * 1e6)
     rng = np.random.default_rng(config.seed)
     d = describe(runs, ["scenario"], ["range_mean_m", "rk4_pos_err_max_mm"], confidence=config["confidence"],
@@ -159,4 +163,26 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         f"(step {config['rk4_dt_s']:g} s) against two DOP853 integrations at 1e-12; mean with a Student-t interval, "
         "median with a BCa bootstrap interval. Drifts are (max − min)/initial of the target's rotational energy and |H|."
     )
+    plot_rk4_errors(runs, config, out_dir / "rk4_error.png")
     return [Table("summary", TITLE, summary, notes, default_format=".3g")]
+
+
+def plot_rk4_errors(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
+    """``rk4_error.png``: each run's maximum RK4 position error per scenario (log scale) and the tolerance."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenarios = list(dict.fromkeys(runs["scenario"]))
+    fig, ax = plt.subplots(figsize=(6.4, 3.6), layout="constrained")
+    jitter = np.random.default_rng(0).uniform(-0.15, 0.15, len(runs))  # spread the dots only
+    xs = np.array([scenarios.index(s) for s in runs["scenario"]]) + jitter
+    ax.scatter(xs, runs["rk4_pos_err_max_m"] * 1e3, s=14, color="tab:blue", label="one run (max over the run)")
+    ax.axhline(config["rk4_tolerance_m"] * 1e3, color="tab:red", ls="--", label=f"tolerance {config['rk4_tolerance_m'] * 1e3:g} mm")
+    ax.set(xticks=range(len(scenarios)), xticklabels=scenarios, yscale="log", ylabel="RK4 position error (mm)",
+           title=f"RK4 of eq. 21 (step {config['rk4_dt_s']:g} s) vs truth over {config['duration_s']:g} s")
+    ax.legend(fontsize=8)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    plt.close(fig)

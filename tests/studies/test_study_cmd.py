@@ -56,6 +56,8 @@ def test_summary_tables(quick_truth):
     md = (quick_truth / "summary.md").read_text()
     assert "Truth-model check" in md and md.count("\n| SC") == len(summary)
     assert (quick_truth / "summary.csv").is_file()
+    png = (quick_truth / "rk4_error.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
     assert json.loads((quick_truth / "study.json").read_text())["quick"] is True
 
 
