@@ -162,12 +162,31 @@ def format_summary(s: RecordingSummary) -> str:
     return "\n".join(lines)
 
 
+def format_study(out_dir: Path) -> str:
+    """A study folder: its runs (from ``runs.parquet``), where they are, and ``summary.md``."""
+    runs = pd.read_parquet(out_dir / "runs.parquet")
+    lines = [f"study folder {out_dir}: {len(runs)} runs in runs.parquet; per run: {out_dir / 'runs'}/<run_id>/"]
+    lines += [f"  {rid}" for rid in runs["run_id"]]
+    summary = out_dir / "summary.md"
+    if summary.is_file():
+        lines += ["", summary.read_text().rstrip()]
+    return "\n".join(lines)
+
+
 def inspect(
     path: Path = typer.Argument(..., help="A .rrd recording or a run folder (DIR/runs/<run_id>)."),
     export: Optional[Path] = typer.Option(None, "--export", help="Write the recording's time series to this Parquet file."),
     contents: Optional[list[str]] = typer.Option(None, "--contents", help="Entity-path expression(s) to export, e.g. '/truth/**'."),
 ) -> None:
-    """List what a recording holds (entities, time range, counts) and the run's metrics; optionally export series."""
+    """List what a recording holds (entities, time range, counts) and the run's metrics; optionally export series.
+
+    Given a study's output folder (with ``runs.parquet``), print its summary and its run folders instead.
+    """
+    if path.is_dir() and (path / "runs.parquet").is_file():
+        if export is not None:
+            raise ValueError(f"{path} is a study folder; --export needs one run: give {path}/runs/<run_id>")
+        typer.echo(format_study(path))
+        return
     rrds, metrics = _find_recordings(path)
     if export is not None:
         if export.suffix != ".parquet":

@@ -127,14 +127,21 @@ def check_workers(workers: int | None) -> None:
 
 
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None):
-    """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes."""
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float = 20.0):
+    """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes.
+
+    An unreachable scheduler is bad input: ValueError naming the address.
+    """
     from distributed import Client, LocalCluster
 
     check_scheduler(scheduler)
     check_workers(workers)
     if scheduler is not None:
-        with Client(scheduler, timeout="20s") as client:
+        try:
+            client = Client(scheduler, timeout=f"{connect_timeout_s}s")
+        except (OSError, TimeoutError) as e:
+            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__})") from None
+        with client:
             yield client
         return
     with LocalCluster(

@@ -65,6 +65,15 @@ def test_contents_selects_series(quick_truth):
     assert list(df.columns) == [TIME_COLUMN, "/truth/w_ST_T/x", "/truth/w_ST_T/y", "/truth/w_ST_T/z"] and not skipped
 
 
+def test_inspect_study_folder_lists_runs_and_summary(quick_truth, capsys):
+    assert main(["inspect", str(quick_truth)]) == 0
+    text = capsys.readouterr().out
+    runs = pd.read_parquet(quick_truth / "runs.parquet")
+    assert f"{len(runs)} runs" in text and all(rid in text for rid in runs["run_id"]) and "Truth-model check" in text
+    assert main(["inspect", str(quick_truth), "--export", "x.parquet"]) == 2
+    assert "is a study folder" in capsys.readouterr().err
+
+
 def test_inspect_simulate_output_folder(tmp_path, capsys):
     out = tmp_path / "sim"
     assert main(["simulate", "--scenario", "SC1", "--duration", "10", "--dt", "0.5", "--out", str(out)]) == 0

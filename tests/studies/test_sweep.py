@@ -16,7 +16,7 @@ import pytest
 
 from studies.cli import main
 from studies.inspect_cmd import export_series
-from studies.sweep import ELAPSED_COLUMN, RESULT_FILE, make_specs, run_seed
+from studies.sweep import ELAPSED_COLUMN, RESULT_FILE, dask_client, make_specs, run_seed
 
 DASK = Path(sys.executable).with_name("dask")
 
@@ -48,6 +48,13 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def test_unreachable_scheduler_is_a_clear_error():
+    address = f"tcp://127.0.0.1:{_free_port()}"  # nothing listens there
+    with pytest.raises(ValueError, match=f"--scheduler {address}: no Dask scheduler answered within 1 s"):
+        with dask_client(address, connect_timeout_s=1.0):
+            pass
 
 
 @pytest.fixture
