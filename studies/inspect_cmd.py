@@ -174,7 +174,7 @@ def format_study(out_dir: Path) -> str:
 
 
 def inspect(
-    path: Path = typer.Argument(..., help="A .rrd recording or a run folder (DIR/runs/<run_id>)."),
+    path: Path = typer.Argument(..., help="A .rrd recording, a run folder (DIR/runs/<run_id>) or a study folder (DIR)."),
     export: Optional[Path] = typer.Option(None, "--export", help="Write the recording's time series to this Parquet file."),
     contents: Optional[list[str]] = typer.Option(None, "--contents", help="Entity-path expression(s) to export, e.g. '/truth/**'."),
 ) -> None:

@@ -140,7 +140,7 @@ def run_study(name: str, *, config_path: Path | None = None, quick: bool = False
 
 def study(
     name: str = typer.Argument(..., help=f"Study to run: {', '.join(STUDIES)}."),
-    quick: bool = typer.Option(False, "--quick", help="Small size (the config's [quick] table)."),
+    quick: bool = typer.Option(False, "--quick", help="Small size: the config's quick table of overrides."),
     config: Optional[Path] = typer.Option(None, "--config", help="Study config TOML (default studies/configs/NAME.toml)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT."),
