@@ -1,6 +1,5 @@
 """`lcnav inspect`: every recording verifies, the listing is right, and the export returns the run's data."""
 
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +10,6 @@ import pytest
 
 from studies.cli import main
 from studies.inspect_cmd import TIME_COLUMN, export_series, summarize_recording
-from studies.scenarios import get_scenario
 from studies.truth import simulate_truth
 from studies.truth_study import perturbed_scenario
 
