@@ -3,7 +3,9 @@
 The papers report single runs; lcnav runs many seeds and reports, per group
 of runs, the mean, the sample standard deviation, a Student-t confidence
 interval of the mean and, for skewed metrics (convergence times, errors), a
-bootstrap interval of the median (``scipy.stats.bootstrap``, BCa).
+bootstrap interval of the median (``scipy.stats.bootstrap``, BCa); for
+fractions (runs converged, coverage) a Wilson score interval
+(``scipy.stats.binomtest``).
 """
 
 from __future__ import annotations
@@ -83,6 +85,15 @@ def bootstrap_interval(
     )
     lo, hi = res.confidence_interval
     return Interval(est, float(lo), float(hi), confidence, f"bootstrap-{method}")
+
+
+def proportion_interval(k: int, n: int, confidence: float = 0.95) -> Interval:
+    """Fraction ``k/n`` (e.g. runs converged) with its Wilson score interval (``scipy.stats.binomtest``)."""
+    confidence = _check_confidence(confidence)
+    if n < 1 or not 0 <= k <= n:
+        raise ValueError(f"proportion_interval needs 0 <= k <= n and n >= 1, got k={k}, n={n}")
+    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
+    return Interval(k / n, float(ci.low), float(ci.high), confidence, "wilson")
 
 
 def describe(

@@ -12,7 +12,7 @@ from scipy import stats as sps
 from studies.blueprint import run_blueprint, send_estimate, send_truth
 from studies.inspect_cmd import export_series
 from studies.recording import recording
-from studies.stats import bootstrap_interval, describe, t_interval
+from studies.stats import bootstrap_interval, describe, proportion_interval, t_interval
 from studies.tables import Table, to_markdown, write_tables
 
 RERUN = Path(sys.executable).with_name("rerun")
@@ -50,6 +50,22 @@ def test_bootstrap_median_interval_covers_the_true_median():
     assert hits >= 85  # binomial(100, 0.95) is below 88 with probability < 1%; BCa undercovers slightly at n = 40
     iv = bootstrap_interval([4.0, 4.0], rng=rng)
     assert (iv.lo, iv.hi) == (4.0, 4.0)
+
+
+def test_wilson_interval_coverage_and_closed_form():
+    # closed form of the Wilson interval for k = 9 of n = 10 at 95%
+    z, n, p = sps.norm.ppf(0.975), 10, 0.9
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    iv = proportion_interval(9, 10)
+    assert (iv.lo, iv.hi) == (pytest.approx(centre - half, rel=1e-9), pytest.approx(centre + half, rel=1e-9))
+    # coverage for p = 0.9, n = 50 (Fig. 20-like fractions): near 95% over 4000 binomial draws
+    k = np.random.default_rng(3).binomial(50, 0.9, 4000)
+    values, counts = np.unique(k, return_counts=True)
+    cover = sum(c for v, c in zip(values, counts) if (iv := proportion_interval(int(v), 50)).lo <= 0.9 <= iv.hi) / k.size
+    assert 0.92 < cover < 0.98
+    with pytest.raises(ValueError, match="0 <= k <= n"):
+        proportion_interval(3, 2)
 
 
 def test_describe_groups_in_order_of_appearance():
