@@ -90,20 +90,24 @@ def run_seed(study_seed: int, run_id: str) -> int:
     return int((int(state[0]) << 32 | int(state[1])) >> 1)
 
 
-def make_specs(study_seed: int, runs: Iterable[tuple[str, Mapping[str, Any]]]) -> list[RunSpec]:
-    """RunSpecs from ``(run_id, params)`` pairs, each seeded by :func:`run_seed`.
+def make_specs(study_seed: int, runs: Iterable[tuple]) -> list[RunSpec]:
+    """RunSpecs from ``(run_id, params)`` or ``(run_id, params, seed_key)`` items.
 
-    Run ids must be unique file names (letters, digits, ``._-``).
+    Each run is seeded by :func:`run_seed` of its ``seed_key`` (default: its run
+    id). Runs that share a ``seed_key`` share their seed: paired comparisons,
+    e.g. the same measurement noise with and without a prior. Run ids must be
+    unique file names (letters, digits, ``._-``).
     """
     specs, seen = [], set()
-    for run_id, params in runs:
+    for item in runs:
+        run_id, params, seed_key = (*item, item[0]) if len(item) == 2 else item
         if not RUN_ID_RE.match(run_id):
             raise ValueError(f"run id {run_id!r} must be 1-128 letters, digits, '.', '_' or '-', starting with a letter or digit")
         if run_id in seen:
             raise ValueError(f"run id {run_id!r} appears twice in the sweep")
         seen.add(run_id)
         json.dumps(dict(params))  # parameters travel as JSON: fail here, not on a worker
-        specs.append(RunSpec(run_id, run_seed(study_seed, run_id), dict(params)))
+        specs.append(RunSpec(run_id, run_seed(study_seed, str(seed_key)), dict(params)))
     return specs
 
 

@@ -34,6 +34,13 @@ def test_run_seeds_depend_on_study_seed_and_run_id_only():
     assert abs(np.corrcoef(a, b)[0, 1]) < 5 / np.sqrt(10_000)
 
 
+def test_paired_runs_share_their_seed():
+    specs = make_specs(3, [("SC3-prior-s000", {"prior": True}, "SC3-s000"), ("SC3-none-s000", {"prior": False}, "SC3-s000"),
+                           ("SC3-prior-s001", {"prior": True}, "SC3-s001"), ("solo", {})])
+    assert specs[0].seed == specs[1].seed == run_seed(3, "SC3-s000") != specs[2].seed
+    assert specs[3].seed == run_seed(3, "solo")
+
+
 @pytest.mark.parametrize("runs, message", [
     ([("a", {}), ("a", {})], "appears twice"),
     ([("../x", {})], "must be 1-128 letters"),
