@@ -37,17 +37,22 @@ def record_truth(truth: Truth, path: Path, seed: int) -> None:
     seen from the servicer); ``/truth/w_ST_T/{x,y,z}`` and ``/truth/w_T_T/...``
     the relative and the target's own rates (rad/s); ``/truth/range_m`` the range.
     """
+    with recording(path, recording_id=f"truth-{truth.scenario.name}-seed{seed}") as rec:
+        log_truth(rec, truth)
+
+
+def log_truth(rec, truth: Truth) -> None:
+    """Log the truth entities of :func:`record_truth` into the open recording ``rec``."""
     import rerun as rr
 
     q_ST = quat_conjugate(truth.x[:, 0:4])
     r_TS_S = -np.einsum("nij,nj->ni", quat_to_dcm(q_ST), truth.x[:, 7:10])
-    with recording(path, recording_id=f"truth-{truth.scenario.name}-seed{seed}") as rec:
-        rec.log("/truth/target", rr.Boxes3D(half_sizes=[equivalent_box_half_sizes(truth.J_T_diag)], colors=[[200, 160, 60]]), static=True)
-        rec.log("/truth/servicer", rr.Boxes3D(half_sizes=[[1.0, 1.0, 1.0]], colors=[[90, 140, 220]]), static=True)
-        send_poses(rec, "/truth/target", truth.t, r_TS_S, q_ST)
-        send_scalars(rec, "/truth/w_ST_T", truth.t, truth.x[:, 4:7], ["x", "y", "z"])
-        send_scalars(rec, "/truth/w_T_T", truth.t, truth.target[:, 10:13], ["x", "y", "z"])
-        send_scalars(rec, "/truth/range_m", truth.t, np.linalg.norm(truth.x[:, 7:10], axis=1))
+    rec.log("/truth/target", rr.Boxes3D(half_sizes=[equivalent_box_half_sizes(truth.J_T_diag)], colors=[[200, 160, 60]]), static=True)
+    rec.log("/truth/servicer", rr.Boxes3D(half_sizes=[[1.0, 1.0, 1.0]], colors=[[90, 140, 220]]), static=True)
+    send_poses(rec, "/truth/target", truth.t, r_TS_S, q_ST)
+    send_scalars(rec, "/truth/w_ST_T", truth.t, truth.x[:, 4:7], ["x", "y", "z"])
+    send_scalars(rec, "/truth/w_T_T", truth.t, truth.target[:, 10:13], ["x", "y", "z"])
+    send_scalars(rec, "/truth/range_m", truth.t, np.linalg.norm(truth.x[:, 7:10], axis=1))
 
 
 def simulate(

@@ -1,0 +1,156 @@
+"""``lcnav study NAME``: run a study's sweep and write its tables.
+
+A study is a :class:`StudyDefinition` in :data:`STUDIES`. The command
+
+1. loads and validates the config (``studies/configs/<NAME>.toml`` or
+   ``--config FILE``; ``--quick`` applies its ``[quick]`` table) — a bad config
+   stops here with one line naming the field, before anything is written;
+2. expands it into run specs (each with ``run_id`` and ``seed``);
+3. runs them through :func:`studies.sweep.run_sweep` (a local Dask cluster of
+   ``--workers`` processes, or ``--scheduler tcp://HOST:PORT``), skipping runs
+   already stored in ``DIR/runs/`` (resume);
+4. writes ``DIR/runs.parquet`` (+ CSV: one row per run with its parameters and
+   metrics), the study's tables (``DIR/summary.parquet``, ``DIR/summary.csv``,
+   ``DIR/summary.md``, and any others) and prints the Markdown.
+
+``DIR`` defaults to ``runs/<NAME>-<UTC timestamp>/``; ``DIR/study.json``
+records the resolved config, and resuming into a folder of another config is
+refused.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import pandas as pd
+import typer
+
+from studies import truth_study
+from studies.config import Field, StudyConfig, default_config_path, load_config
+from studies.io import write_json, write_table
+from studies.sweep import RunSpec, check_scheduler, check_workers, run_sweep
+from studies.tables import Table, write_tables
+
+
+@dataclass(frozen=True)
+class StudyDefinition:
+    """How a study plugs into the engine.
+
+    * ``fields``: its config fields (besides ``study`` and ``seed``), see :class:`studies.config.Field`;
+    * ``check(params)``: cross-field rules, raising :class:`studies.config.ConfigError`;
+    * ``expand(config) -> list[RunSpec]``: the runs (use :func:`studies.sweep.make_specs`, which
+      derives each run's seed from the study seed and the run id);
+    * ``execute(spec, workdir) -> dict``: one run, a module-level function (it is shipped to the
+      Dask workers by reference); it draws only from ``numpy.random.default_rng(spec.seed)``,
+      returns a flat dict of numbers/strings/booleans and may write files (``run.rrd``, PNGs) into
+      ``workdir``, which end up in ``DIR/runs/<run_id>/``;
+    * ``summarise(runs, config, out_dir) -> list[Table]``: the paper-style tables from the runs
+      table, the first named ``summary``; it may write figures (PNG) into ``out_dir``.
+    """
+
+    name: str
+    title: str
+    fields: dict[str, Field]
+    expand: Callable[[StudyConfig], list[RunSpec]]
+    execute: Callable[[RunSpec, Path], dict]
+    summarise: Callable[[pd.DataFrame, StudyConfig, Path], Sequence[Table]]
+    check: Callable[[dict], None] | None = None
+
+    def load(self, path: Path | None = None, *, quick: bool = False) -> StudyConfig:
+        """Load and validate the study's config (its default file without ``path``)."""
+        cfg = load_config(path or default_config_path(self.name), self.name, self.fields, quick=quick)
+        if self.check is not None:
+            try:
+                self.check(dict(cfg.params))
+            except ValueError as e:
+                raise type(e)(f"{Path(cfg.source).name}: {e}") from None
+        return cfg
+
+
+STUDIES: dict[str, StudyDefinition] = {
+    d.name: d
+    for d in [
+        StudyDefinition("truth", truth_study.TITLE, truth_study.FIELDS, truth_study.expand, truth_study.execute,
+                        truth_study.summarise, truth_study.check),
+    ]
+}
+
+
+def get_study(name: str) -> StudyDefinition:
+    """The registered study ``name``; ValueError naming the runnable ones otherwise."""
+    if name not in STUDIES:
+        if default_config_path(name).is_file():
+            raise ValueError(f"study {name!r} has a config ({default_config_path(name).name}) but no runner is registered "
+                             f"in this installation yet; runnable studies: {', '.join(STUDIES)}")
+        raise ValueError(f"unknown study {name!r}; known studies: {', '.join(STUDIES)}")
+    return STUDIES[name]
+
+
+def default_out_dir(name: str) -> Path:
+    """``runs/<name>-<UTC timestamp>``."""
+    return Path("runs") / f"{name}-{datetime.datetime.now(datetime.UTC):%Y%m%dT%H%M%SZ}"
+
+
+def _check_out_dir(out: Path, config: StudyConfig) -> None:
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--out {out} exists and is not a folder")
+    stamp = out / "study.json"
+    if stamp.is_file():
+        old = json.loads(stamp.read_text())
+        if json.dumps(old, sort_keys=True) != config.identity_json():
+            raise ValueError(f"--out {out} holds a {old.get('study')!r} study with another config (see {stamp}); choose a new --out")
+
+
+@dataclass(frozen=True)
+class StudyOutcome:
+    out_dir: Path
+    runs: pd.DataFrame
+    tables: list[Table]
+    markdown: str
+    n_executed: int
+    n_skipped: int
+
+
+def run_study(name: str, *, config_path: Path | None = None, quick: bool = False, out: Path | None = None,
+              scheduler: str | None = None, workers: int | None = None, progress: bool = True) -> StudyOutcome:
+    """Everything ``lcnav study`` does, as a function (validation first, then the sweep, then the tables)."""
+    study = get_study(name)
+    check_scheduler(scheduler)
+    check_workers(workers)
+    if scheduler is not None and workers is not None:
+        raise ValueError("--workers sizes the local cluster; it cannot be combined with --scheduler (size the remote cluster there)")
+    config = study.load(config_path, quick=quick)
+    specs = study.expand(config)
+    out = Path(out) if out is not None else default_out_dir(name)
+    _check_out_dir(out, config)
+    write_json(out / "study.json", config.identity())
+    sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name)
+    write_table(out / "runs.parquet", sweep.table, csv=True)
+    tables = list(study.summarise(sweep.table, config, out))
+    if not tables or tables[0].name != "summary":
+        raise RuntimeError(f"study {name}: summarise must return the 'summary' table first")
+    md = write_tables(out, tables, heading=f"{name}{' (quick)' if quick else ''}: {len(sweep.table)} runs")
+    return StudyOutcome(out, sweep.table, tables, md, sweep.n_executed, sweep.n_skipped)
+
+
+def study(
+    name: str = typer.Argument(..., help=f"Study to run: {', '.join(STUDIES)}."),
+    quick: bool = typer.Option(False, "--quick", help="Small size: the config's quick table of overrides."),
+    config: Optional[Path] = typer.Option(None, "--config", help="Study config TOML (default studies/configs/NAME.toml)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores)."),
+) -> None:
+    """Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."""
+    result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers)
+    typer.echo(result.markdown)
+    typer.echo(f"{result.n_executed} runs executed, {result.n_skipped} already stored; wrote {result.out_dir}")
+
+
+def register(app: typer.Typer) -> None:
+    app.command("study")(study)
