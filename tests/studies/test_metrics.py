@@ -23,10 +23,10 @@ def test_state_and_filter_magnitudes():
     x = np.zeros((3, 15))
     x[:, 0] = 1.0
     y = x.copy()
-    y[:, 0:4] = rotvec_to_quat(np.array([0.0, 0.0, 0.05]))
+    y[:, 0:4] = rotvec_to_quat(np.array([0.0, 0.0, 0.03]))
     y[:, 7:10] = [3.0, 4.0, 0.0]
     e = M.state_errors(x, y)
-    np.testing.assert_allclose(e["q"], 0.05)
+    np.testing.assert_allclose(e["q"], 0.03)
     np.testing.assert_allclose(e["r"], 5.0)
     np.testing.assert_allclose(e["w"], 0.0)
     P = np.tile(np.diag(np.repeat([1e-4, 1e-6, 4.0, 1.0, 0.01], [3, 3, 3, 3, 2])), (3, 1, 1))
@@ -35,7 +35,7 @@ def test_state_and_filter_magnitudes():
     np.testing.assert_allclose(s["r"], np.sqrt(12.0))
     res = M.evaluate(np.arange(3.0), y, P, x)
     assert np.isnan(res["state"]["r"].convergence_time_s)  # 5 m > 1 m threshold throughout
-    assert res["state"]["q"].convergence_time_s == 0.0 and res["state"]["q"].steady_state_rmse == pytest.approx(0.05)
+    assert res["state"]["q"].convergence_time_s == 0.0 and res["state"]["q"].steady_state_rmse == pytest.approx(0.03)
 
 
 def test_nees_of_drawn_errors_is_chi_square_and_band_holds():
