@@ -13,9 +13,10 @@ Writes, after everything has run (nothing is written on an error):
   whose run-averaged NEES lies in its 95 % band, gate rejection rates;
 * ``states.parquet`` — per step of the first run: truth, estimate, 3-σ of
   each error state, NIS and gate decisions;
-* ``run.rrd`` — the same on the ``sim_time`` timeline: ``/truth/...``,
-  ``/estimate/<filter>/...`` (with ``.../sigma3/...``), ``/measurement/...``,
-  ``/gate/<source>/...``.
+* ``run.rrd`` — the same on the ``sim_time`` timeline in the layout of
+  :mod:`studies.blueprint` (``/truth/...``, ``/estimate/<filter>/...`` with
+  errors and ±3σ, ``/measurement/<source>/...``, ``/gate/<filter>/<source>/e2``
+  with its bounds and a log of rejections), with the viewer layout.
 """
 
 from __future__ import annotations
@@ -29,19 +30,21 @@ import pandas as pd
 import typer
 
 from estimators.dynamics import k_from_inertia
-from estimators.error_state import ERROR_SLICES
+from estimators.error_state import ERROR_SLICES, boxminus
 from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
 from estimators.prior import PROXY_MODES, SpinPrior, initialize_with_prior, tuning_for_prior
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from perception.simulated_pose import NOISE_MODELS, parse_faults, simulate_pose_measurements
 from studies.io import write_json, write_table
-from studies.metrics import GROUPS, chi_square_band, evaluate, nees, state_errors
-from studies.recording import recording, send_scalars
+from studies.metrics import GROUPS, chi_square_band, evaluate, nees
+from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
+from studies.recording import TIMELINE, recording, send_scalars
 from studies.scenarios import get_scenario
 from studies.truth import RELATIVE_COLUMNS, Truth, simulate_truth
 
 PRIOR_USES = ("none", "init", "proxy")
 ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
+QUAT_AXES = ("0", "1", "2", "3")
 MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
 
 
@@ -116,32 +119,42 @@ def _states_table(tr: Truth, run: NavigationRun) -> pd.DataFrame:
 
 
 def _record(path: Path, tr: Truth, run: NavigationRun, meas, seed: int) -> None:
+    """``run.rrd`` in the layout of :mod:`studies.blueprint`, with its viewer layout."""
     import rerun as rr
 
-    f = run.filter
-    t = tr.t
-    with recording(path, recording_id=f"run-{tr.scenario.name}-{f}-seed{seed}") as rec:
-        for name, sl in (("q_TS", slice(0, 4)), ("w_ST_T", slice(4, 7)), ("r_ST_T", slice(7, 10)), ("v_ST_T", slice(10, 13)), ("k", slice(13, 15))):
-            names = ["0", "1", "2", "3"] if name == "q_TS" else (["k1", "k2"] if name == "k" else ["x", "y", "z"])
-            send_scalars(rec, f"/truth/{name}", t, tr.x[:, sl], names)
-            send_scalars(rec, f"/estimate/{f}/{name}", t, run.x[:, sl], names)
-        sig = 3.0 * np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
-        for g, sl in ERROR_SLICES.items():
-            send_scalars(rec, f"/estimate/{f}/sigma3/{g}", t, sig[:, sl], ERROR_NAMES[sl])
-        for g, e in state_errors(run.x, tr.x).items():
-            send_scalars(rec, f"/estimate/{f}/error/{g}", t, e)
+    f, t = run.filter, tr.t
+    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
+    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
+                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
+    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
+    with recording(path, recording_id=f"run-{tr.scenario.name}-{f}-seed{seed}", blueprint=blueprint) as rec:
+        send_truth(rec, "q_TS", t, tr.x[:, 0:4], QUAT_AXES)
+        send_estimate(rec, f, "q_TS", t, run.x[:, 0:4], axes=QUAT_AXES)
+        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
+        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
+        for name, (sl, esl, axes) in quantities.items():
+            send_truth(rec, name, t, tr.x[:, sl], axes)
+            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
         tm, qm, rm = meas
-        send_scalars(rec, "/measurement/q_TS", tm, qm, ["0", "1", "2", "3"])
-        send_scalars(rec, "/measurement/r_ST_T", tm, rm, ["x", "y", "z"])
+        send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
+        send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))
         for s in SOURCES:
             ok = np.isfinite(run.nis[s])
             if ok.any():
-                send_scalars(rec, f"/gate/{s}/e2", t[ok], run.nis[s][ok])
-                send_scalars(rec, f"/gate/{s}/accepted", t[ok], run.accepted[s][ok].astype(float))
-        if run.decisions:
-            d0 = run.decisions[0]
-            rec.log("/gate/bounds", rr.TextDocument(f"two-sided chi-square, 3 dof: [{d0.lower:.4g}, {d0.upper:.4g}]"), static=True)
-        send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
+                send_scalars(rec, f"/gate/{f}/{s}/e2", t[ok], run.nis[s][ok])
+        by_source = {s: [d for d in run.decisions if d.source == s] for s in SOURCES}
+        for s, ds in by_source.items():
+            if ds:
+                td = np.array([d.t for d in ds])
+                send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
+                send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
+        rec.set_time(TIMELINE, duration=0.0)
+        for d in run.decisions:
+            if not d.accepted:
+                rec.set_time(TIMELINE, duration=float(d.t))
+                rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
+        if run.proxy_used.any():
+            send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
 
 
 def run(

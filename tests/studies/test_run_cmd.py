@@ -43,6 +43,10 @@ def test_run_writes_metrics_states_and_recording(tmp_path):
         assert m["components"]["r"]["steady_state_rmse"] == pytest.approx(np.sqrt(np.mean(err_r[df["t_s"] >= tc] ** 2)))
     res = subprocess.run([str(RERUN), "rrd", "verify", str(out / "run.rrd")], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
+    printed = subprocess.run([str(RERUN), "rrd", "print", str(out / "run.rrd")], capture_output=True, text=True).stdout
+    for path in ["/truth/w_ST_T/z", "/estimate/ukf/r_ST_T/x", "/estimate/ukf/error/q_TS/x/plus3sigma", "/measurement/position/r_ST_T/y",
+                 "/gate/ukf/attitude/e2", "/gate/ukf/position/upper", "/gate/ukf/log"]:
+        assert path in printed, path
 
 
 def _bad_measurements(tmp_path):
