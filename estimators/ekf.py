@@ -38,7 +38,7 @@ class ExtendedKalmanFilter(KalmanFilterBase):
         x, F = self.model.propagate_with_jacobian(self.x, u, dt)  # eqs 25-26
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(F))):
             raise NonFiniteError(f"ekf: propagating over dt={dt} gave NaN or Inf; step refused")
-        return x, F @ self.P @ F.T + self.Q(dt)
+        return x, F @ self.P @ F.T + self.Q
 
     def _innovate(self, sources, z):
         self._H = np.vstack([src.jacobian(self.x) for src in sources])

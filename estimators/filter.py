@@ -71,7 +71,6 @@ class KalmanFilterBase:
     x0 : (n_state,) initial estimate ``x̂_0``.
     P0 : (n_error, n_error) or its diagonal; initial covariance ``P_0`` (positive definite).
     Q : (n_error, n_error) or its diagonal; ``Q_d`` per step (positive semi-definite).
-        A callable ``dt -> Q`` is accepted for a step-dependent ``Q_d``.
     gate_confidence : probability of accepting a correct measurement at each gate
         (``None``: no gating; every part is used).
     two_sided : the two-sided test of §4.3 of ``002_…`` (default) or the one-sided one.
@@ -95,7 +94,7 @@ class KalmanFilterBase:
             x0[0:4] = x0[0:4] / np.linalg.norm(x0[0:4])
         self.x = x0
         self.P = _check_covariance(P0, m, "P_0", definite=True)
-        self._Q = Q if callable(Q) else _check_covariance(Q, m, "Q_d", definite=False)
+        self.Q = _check_covariance(Q, m, "Q_d", definite=False)
         if gate_confidence is not None and not (0.0 < gate_confidence < 1.0):
             raise ValueError(f"gate_confidence must lie in (0, 1) or be None, got {gate_confidence!r}")
         self.gate_confidence = gate_confidence
@@ -107,12 +106,6 @@ class KalmanFilterBase:
         self.S = np.zeros((0, 0))
         self.innovations: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self.gate_decisions: list[GateDecision] = []
-
-    def Q(self, dt: float) -> np.ndarray:
-        """``Q_d`` for a step of ``dt`` seconds."""
-        if callable(self._Q):
-            return _check_covariance(self._Q(dt), self.model.n_error, "Q_d", definite=False)
-        return self._Q
 
     # -------------------------------------------------------------- verbs
 

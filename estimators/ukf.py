@@ -66,7 +66,7 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         if not np.all(np.isfinite(X)):
             raise NonFiniteError(f"ukf: propagating the sigma points over dt={dt} gave NaN or Inf; step refused")
         dX = self.model.boxminus(X, X[0])
-        mean, P = unscented_transform(dX, self.points.Wm, self.points.Wc, self.Q(dt))
+        mean, P = unscented_transform(dX, self.points.Wm, self.points.Wc, self.Q)
         return self.model.boxplus(X[0], mean), P
 
     def _innovate(self, sources, z):
