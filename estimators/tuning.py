@@ -24,9 +24,10 @@ them. ``consistent`` is nearly ``Q_d = 0``: the truth is torque-free and
 Keplerian and the filters' model matches it to 1e-7 m per step
 (``tests/estimators/test_process_model.py``); the small floor absorbs the
 filters' own linearisation errors, which with ``Q_d = 0`` made the NEES grow
-without bound over 100 s (1e-8 per s on the attitude, position and velocity
-made the UKF conservative; this set is where the 30-run NEES test of
-``tests/estimators/test_consistency.py`` holds for both filters).
+without bound over 100 s (the EKF's more than the UKF's). The floor was set
+on the 30-run NEES test of ``tests/estimators/test_consistency.py``: 1e-8
+per s on attitude, position and velocity makes the UKF conservative, 1e-9
+leaves the EKF at the edge of the band; 3e-9 keeps both inside.
 """
 
 from __future__ import annotations
@@ -87,7 +88,7 @@ P0_DEFAULT = _q(1.0, 1e-2, 1.0, 4.0, 0.09)
 TUNINGS: dict[str, Tuning] = {
     t.name: t
     for t in (
-        Tuning("consistent", _q(1e-9, 1e-12, 1e-9, 1e-9, 1e-8), P0_DEFAULT, description="Q_d ~ 0: the truth is noise-free (consistency tests)"),
+        Tuning("consistent", _q(3e-9, 3e-12, 3e-9, 3e-9, 3e-8), P0_DEFAULT, description="Q_d ~ 0: the truth is noise-free (consistency tests)"),
         Tuning("general", _q(1e-4, 1e-5, 1e-3, 1e-3, 1e-5), P0_DEFAULT, description="KF_gen: conservative, for the fast 2-axis tumble (SC4)"),
         Tuning("sc1", _q(1e-5, 1e-7, 1e-4, 1e-4, 0.0), P0_DEFAULT, description="1-axis slow tumble"),
         Tuning("sc2", _q(1e-4, 1e-6, 1e-4, 1e-4, 0.0), P0_DEFAULT, description="1-axis fast tumble"),
