@@ -10,7 +10,8 @@ Writes, after everything has run (nothing is written on an error):
 * ``metrics.json`` — convergence time and steady-state RMSE per group of the
   first run (state based in ``components``, filter based in
   ``filter_components``), their means over the runs, the fraction of steps
-  whose run-averaged NEES lies in its 95 % band, gate rejection rates;
+  (from the latest convergence time) whose run-averaged NEES lies in its 95 %
+  band, the same for each source's NIS (3 dof), gate rejection rates;
 * ``states.parquet`` — per step of the first run: truth, estimate, 3-σ of
   each error state, NIS and gate decisions;
 * ``run.rrd`` — the same on the ``sim_time`` timeline in the layout of
@@ -36,7 +37,7 @@ from estimators.prior import PROXY_MODES, SpinPrior, initialize_with_prior, tuni
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from perception.simulated_pose import NOISE_MODELS, parse_faults, simulate_pose_measurements
 from studies.io import write_json, write_table
-from studies.metrics import GROUPS, chi_square_band, evaluate, nees
+from studies.metrics import GROUPS, chi_square_band, evaluate, fraction_in_band, nees
 from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
 from studies.recording import TIMELINE, recording, send_scalars
 from studies.scenarios import get_scenario
@@ -255,6 +256,7 @@ def run(
             for g in GROUPS
         },
         "nees": {"dof": int(len(states)), "from_s": float(nees_from), "band_95": [lo, hi], "runs": runs},
+        "nis_fraction_in_95": {s: _num(fraction_in_band(np.array([r.nis[s][sel] for r, _, _ in results]), 3)) for s in SOURCES},
         "gate_rejection_rate": {s: _num(float(np.mean([np.mean(~r.accepted[s][np.isfinite(r.nis[s])]) for r, _, _ in results]))) for s in SOURCES},
         "config": {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
                    "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise,
