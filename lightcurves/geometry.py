@@ -9,6 +9,10 @@
   airmass and visibility. Sun and site positions come from astropy.
 * :func:`find_visible_start` — first time after ``epoch`` from which the target
   stays visible for a whole arc.
+* :func:`bisector_rate` — how fast the Sun–observer bisector turns about a
+  spin axis: a light curve measures the *synodic* rate
+  ``ω_syn = ω_sid − bisector_rate`` (the lighting geometry repeats when the
+  body has turned by 2π relative to the bisector, not to inertial space).
 * :func:`spin_attitude` — the target's attitude ``q_IT`` from torque-free
   rigid-body motion (:mod:`estimators.dynamics`): a single-axis spin about a
   principal axis is the steady solution; any other axis tumbles.
@@ -28,7 +32,7 @@ from astropy.time import Time
 from estimators.attitude import dcm_to_quat, quat_derivative, quat_normalize
 from estimators.dynamics import MU_EARTH, R_EARTH, euler_rhs, integrate_truth
 
-__all__ = ["KeplerOrbit", "Observation", "observe", "find_visible_start", "spin_attitude", "pole_quaternion", "DEFAULT_SITE"]
+__all__ = ["KeplerOrbit", "Observation", "observe", "find_visible_start", "spin_attitude", "pole_quaternion", "bisector_rate", "DEFAULT_SITE"]
 
 #: ESA Optical Ground Station, Teide Observatory, Tenerife (a site that observes debris).
 DEFAULT_SITE = EarthLocation.from_geodetic(lon=-16.5097 * u.deg, lat=28.2995 * u.deg, height=2393.0 * u.m)
@@ -227,3 +231,19 @@ def spin_attitude(q_IT0, w_T0, J_diag, t_s) -> tuple[np.ndarray, np.ndarray]:
     else:
         xs = integrate_truth(_attitude_rhs, t, x0, J)
     return quat_normalize(xs[:, :4]), xs[:, 4:]
+
+
+def bisector_rate(obs: Observation, pole_I) -> float:
+    """Mean rate (rad/s, right-handed about ``pole_I``) of the Sun–observer bisector's azimuth.
+
+    The least-squares slope of the unwrapped azimuth of
+    ``b = ŝ + ô`` projected on the plane normal to ``pole_I``.
+    """
+    p = np.asarray(pole_I, dtype=float)
+    p = p / np.linalg.norm(p)
+    b = obs.sun_dir_I + obs.observer_dir_I
+    b = b - np.outer(b @ p, p)
+    e1 = b[0] / np.linalg.norm(b[0])
+    e2 = np.cross(p, e1)
+    azimuth = np.unwrap(np.arctan2(b @ e2, b @ e1))
+    return float(np.polyfit(obs.t_s, azimuth, 1)[0])

@@ -10,7 +10,7 @@
 3. the rotation frequency is the *fundamental* of the light curve's harmonic
    series: the largest ``f₁/n`` (``n = 1 … max_maxima``, ``f₁`` the strongest
    peak) of which every significant peak stronger than ``harmonic_floor`` ×
-   the strongest is a harmonic (within half a resolution element). A light
+   the strongest is a harmonic (within a quarter resolution element). A light
    curve with two unequal maxima per turn — the rocket body of ``002_…``
    §5.1, whose two ends reflect differently — has its strongest peak at twice
    the rotation frequency, and its odd harmonics of ``f₁/2`` are what tells
@@ -201,7 +201,9 @@ def extract_spin_prior(
         return SpinPrior(False, None, None, None, None, None, f"no significant period: the strongest peak has false-alarm probability {fap:.3g} > {false_alarm_level}", (), False, false_alarm_level, float(fap), 0, spec)
     f1 = peaks[0].frequency_hz
     # Step 3: the fundamental: the largest f1/n of which every strong peak is a harmonic.
-    tol = 0.5 / T
+    # Peak frequencies of strong peaks are good to a few hundredths of 1/T; a quarter
+    # resolution element tells harmonics from unrelated frequencies.
+    tol = 0.25 / T
     freqs = np.array([p.frequency_hz for p in peaks])
     amps = np.array([p.amplitude for p in peaks])
     strong = amps >= harmonic_floor * amps[0]
