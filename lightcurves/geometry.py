@@ -22,6 +22,7 @@ Everything is SI inside; astropy ``Time``/``EarthLocation`` at the boundary.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import astropy.units as u
@@ -181,8 +182,9 @@ def find_visible_start(orbit: KeplerOrbit, epoch: Time, duration_s: float, site:
     """
     if not (duration_s > 0):
         raise ValueError(f"duration_s must be > 0, got {duration_s}")
-    grid = np.arange(0.0, search_s + duration_s + step_s, step_s)
-    vis = observe(orbit, grid, epoch, site, **visibility).visible
+    key = (site.lat.deg, site.lon.deg, site.height.to_value(u.m))
+    vis = _visibility_grid(orbit, epoch.utc.isot, key, search_s + duration_s, step_s, tuple(sorted(visibility.items())))
+    grid = step_s * np.arange(vis.size)
     need = int(np.ceil(duration_s / step_s)) + 1
     run = 0
     for k, v in enumerate(vis):
@@ -190,6 +192,16 @@ def find_visible_start(orbit: KeplerOrbit, epoch: Time, duration_s: float, site:
         if run >= need:
             return float(grid[k - need + 1])
     raise ValueError(f"the target is never visible for {duration_s:.0f} s within {search_s / 86400:.1f} days of {epoch.isot} from this site")
+
+
+@functools.lru_cache(maxsize=32)
+def _visibility_grid(orbit: KeplerOrbit, epoch_isot: str, site_key: tuple, span_s: float, step_s: float, visibility: tuple) -> np.ndarray:
+    """Visibility on a regular grid, cached: repeated arcs of one scenario search once (the astropy transforms dominate)."""
+    site = EarthLocation.from_geodetic(lon=site_key[1] * u.deg, lat=site_key[0] * u.deg, height=site_key[2] * u.m)
+    grid = np.arange(0.0, span_s + step_s, step_s)
+    vis = observe(orbit, grid, Time(epoch_isot, scale="utc"), site, **dict(visibility)).visible
+    vis.setflags(write=False)
+    return vis
 
 
 def pole_quaternion(axis_T, pole_I, phase_rad: float = 0.0) -> np.ndarray:

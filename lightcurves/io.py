@@ -77,6 +77,7 @@ def to_timeseries(lc: LightCurve) -> TimeSeries:
             "elevation": np.degrees(lc.elevation_rad) * u.deg,
         },
     )
+    ts.time.precision = 9  # ISO text keeps ns (the default, ms, would round sample times)
     ts.meta.update(_plain(lc.meta))
     return ts
 
