@@ -83,11 +83,13 @@ def to_timeseries(lc: LightCurve) -> TimeSeries:
 
 
 def _plain(obj):
-    """Metadata as YAML-friendly builtins."""
+    """Metadata as YAML-friendly builtins (ECSV headers are YAML)."""
     if isinstance(obj, dict):
         return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in np.asarray(obj, dtype=object).tolist()] if isinstance(obj, np.ndarray) else [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
     if isinstance(obj, np.generic):
         return obj.item()
     return obj

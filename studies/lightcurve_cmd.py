@@ -190,7 +190,8 @@ def prior(
     if as_json:
         typer.echo(json.dumps(d, indent=2))
     elif p.significant:
-        typer.echo(f"rate {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.4f} deg/s (period {p.period_s:.2f} s, {p.maxima_per_rotation} maxima per rotation)")
+        maxima = "1 maximum" if p.maxima_per_rotation == 1 else f"{p.maxima_per_rotation} maxima"
+        typer.echo(f"rate {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.4f} deg/s (period {p.period_s:.2f} s, {maxima} per rotation)")
         typer.echo(f"  {p.decision}")
         if truth is not None:
             typer.echo(f"  truth {truth:.4f} deg/s: error {100 * (p.rate_deg_s / truth - 1):+.2f} %")
