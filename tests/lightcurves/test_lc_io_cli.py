@@ -1,7 +1,10 @@
 """Light-curve files and the ``lcnav lightcurve`` commands, including every kind of bad input."""
 
 import json
+import sys
+from pathlib import Path
 
+import astropy.units as u
 import numpy as np
 import pytest
 from astropy.time import Time
@@ -17,7 +20,7 @@ def make_lc(n=200, rate_deg_s=4.0, seed=0):
     f = rate_deg_s / 360.0
     mag = 9 + 0.6 * np.cos(2 * np.pi * 2 * f * t) + 0.2 * np.cos(2 * np.pi * f * t) + rng.normal(0, 0.02, n)
     return LightCurve(
-        time=Time("2024-03-21T20:00:00", scale="utc") + t * 1.0 * __import__("astropy.units", fromlist=["s"]).s,
+        time=Time("2024-03-21T20:00:00", scale="utc") + t * u.s,
         mag=mag, mag_err=np.full(n, 0.02), flux_w_m2=1361 * 10 ** (-0.4 * (mag + 26.74)),
         phase_angle_rad=np.full(n, 0.5), range_m=np.full(n, 2e7), elevation_rad=np.full(n, 0.9),
         meta={"target": "synthetic", "truth_rate_deg_s": rate_deg_s, "seed": seed},
@@ -72,7 +75,8 @@ def test_render_command_writes_ecsv_and_recording(tmp_path, capsys):
     assert len(lc) >= 20 and lc.meta["seed"] == 2 and lc.meta["renderer"]["variant"] == "scalar_rgb"
     # a sphere has no light curve beyond noise and the slow phase-angle trend
     assert np.std(lc.mag - np.polyval(np.polyfit(lc.t_s, lc.mag, 2), lc.t_s)) < 5 * np.median(lc.mag_err)
-    verify = subprocess.run([__import__("sys").executable.replace("python", "rerun"), "rrd", "verify", str(rrd)], capture_output=True, text=True)
+    rerun = Path(sys.executable).with_name("rerun")
+    verify = subprocess.run([str(rerun), "rrd", "verify", str(rrd)], capture_output=True, text=True)
     assert verify.returncode == 0, verify.stderr
 
 
