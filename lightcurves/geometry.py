@@ -178,28 +178,32 @@ def observe(orbit: KeplerOrbit, t_s, epoch: Time, site: EarthLocation = DEFAULT_
 def find_visible_start(orbit: KeplerOrbit, epoch: Time, duration_s: float, site: EarthLocation = DEFAULT_SITE, *, search_s: float = 2 * 86400.0, step_s: float = 60.0, **visibility) -> float:
     """Earliest ``t0`` (s after ``epoch``, on a ``step_s`` grid) with the target visible over ``[t0, t0 + duration_s]``.
 
-    Raises ``ValueError`` when no such arc exists within ``search_s``.
+    The visibility grid is evaluated in 6-hour blocks (cached) and the search
+    stops at the first block that holds the arc. Raises ``ValueError`` when no
+    such arc exists within ``search_s``.
     """
-    if not (duration_s > 0):
-        raise ValueError(f"duration_s must be > 0, got {duration_s}")
+    if not (duration_s > 0 and step_s > 0):
+        raise ValueError(f"duration_s and step_s must be > 0, got {duration_s}, {step_s}")
     key = (site.lat.deg, site.lon.deg, site.height.to_value(u.m))
-    vis = _visibility_grid(orbit, epoch.utc.isot, key, search_s + duration_s, step_s, tuple(sorted(visibility.items())))
-    grid = step_s * np.arange(vis.size)
+    opts = tuple(sorted(visibility.items()))
+    block = int(np.ceil(6 * 3600.0 / step_s))
+    n_total = int(np.ceil((search_s + duration_s) / step_s)) + 1
     need = int(np.ceil(duration_s / step_s)) + 1
     run = 0
-    for k, v in enumerate(vis):
-        run = run + 1 if v else 0
-        if run >= need:
-            return float(grid[k - need + 1])
+    for k0 in range(0, n_total, block):
+        vis = _visibility_block(orbit, epoch.utc.isot, key, k0 * step_s, min(block, n_total - k0), step_s, opts)
+        for j, v in enumerate(vis):
+            run = run + 1 if v else 0
+            if run >= need:
+                return float((k0 + j - need + 1) * step_s)
     raise ValueError(f"the target is never visible for {duration_s:.0f} s within {search_s / 86400:.1f} days of {epoch.isot} from this site")
 
 
-@functools.lru_cache(maxsize=32)
-def _visibility_grid(orbit: KeplerOrbit, epoch_isot: str, site_key: tuple, span_s: float, step_s: float, visibility: tuple) -> np.ndarray:
-    """Visibility on a regular grid, cached: repeated arcs of one scenario search once (the astropy transforms dominate)."""
+@functools.lru_cache(maxsize=256)
+def _visibility_block(orbit: KeplerOrbit, epoch_isot: str, site_key: tuple, t0_s: float, n: int, step_s: float, visibility: tuple) -> np.ndarray:
+    """Visibility at ``t0_s + step_s·k``, k < n, cached: arcs of one scenario share the search (astropy transforms dominate)."""
     site = EarthLocation.from_geodetic(lon=site_key[1] * u.deg, lat=site_key[0] * u.deg, height=site_key[2] * u.m)
-    grid = np.arange(0.0, span_s + step_s, step_s)
-    vis = observe(orbit, grid, Time(epoch_isot, scale="utc"), site, **dict(visibility)).visible
+    vis = observe(orbit, t0_s + step_s * np.arange(n), Time(epoch_isot, scale="utc"), site, **dict(visibility)).visible
     vis.setflags(write=False)
     return vis
 

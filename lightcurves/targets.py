@@ -330,6 +330,8 @@ CFRP = Material("cfrp", diffuse_albedo=0.08, specular_albedo=0.12, roughness=0.2
 MLI_GOLD = Material("mli_gold", diffuse_albedo=0.25, specular_albedo=0.6, roughness=0.3, eta=0.47, k=2.8)
 #: Solar-cell panel front: dark cells under cover glass.
 SOLAR_CELL = Material("solar_cell", diffuse_albedo=0.05, specular_albedo=0.3, roughness=0.05, eta=1.5)
+#: Solar-panel back: white thermal paint.
+PANEL_BACK = Material("panel_back", diffuse_albedo=0.7, specular_albedo=0.05, roughness=0.4, eta=1.5)
 
 
 def atlas_centaur(length_m: float = 12.0, diameter_m: float = 3.05, nozzle_length_m: float = 2.0, n_seg: int = 64, density_kg_m3: float = 25.0) -> Target:
@@ -395,7 +397,8 @@ def box_wing(bus_m=(1.6, 1.6, 2.2), panel_lengths_m=(5.0, 3.5), panel_width_m: f
 
     The unequal wings, and a wing hinge offset toward +z, make the body
     asymmetric (centre of mass off the bus centre, no symmetry plane normal to y).
-    Panels face +x (cells) and are modelled as thin closed boxes.
+    Wings are thin closed boxes: cells on the +x face (``*_cells``), white
+    back and edges (``*_back``), so a half turn does not look the same.
     """
     bx, by, bz = (float(v) for v in bus_m)
     L1, L2 = (float(v) for v in panel_lengths_m)
@@ -404,9 +407,12 @@ def box_wing(bus_m=(1.6, 1.6, 2.2), panel_lengths_m=(5.0, 3.5), panel_width_m: f
     bus = _box([-bx / 2, -by / 2, -bz / 2], [bx / 2, by / 2, bz / 2])
     zc, t, w = 0.25 * bz, panel_thickness_m, panel_width_m
     gap = 0.3  # yoke between bus wall and wing
-    wing_p = _box([-t / 2, by / 2 + gap, zc - w / 2], [t / 2, by / 2 + gap + L1, zc + w / 2])
-    wing_m = _box([-t / 2, -by / 2 - gap - L2, zc - w / 2], [t / 2, -by / 2 - gap, zc + w / 2])
-    parts = [Part("bus", *bus, MLI_GOLD), Part("wing_plus_y", *wing_p, SOLAR_CELL), Part("wing_minus_y", *wing_m, SOLAR_CELL)]
+    parts = [Part("bus", *bus, MLI_GOLD)]
+    for name, (lo_y, hi_y) in (("wing_plus_y", (by / 2 + gap, by / 2 + gap + L1)), ("wing_minus_y", (-by / 2 - gap - L2, -by / 2 - gap))):
+        v, f = _box([-t / 2, lo_y, zc - w / 2], [t / 2, hi_y, zc + w / 2])
+        front = np.zeros(len(f), bool)
+        front[2:4] = True  # the two triangles of the x = +t/2 face (see _box)
+        parts += [Part(f"{name}_cells", v, f[front], SOLAR_CELL), Part(f"{name}_back", v, f[~front], PANEL_BACK)]
     return make_target("box-wing", parts, density_kg_m3, dict(bus_m=(bx, by, bz), panel_lengths_m=(L1, L2), panel_width_m=panel_width_m))
 
 
