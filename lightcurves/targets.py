@@ -435,10 +435,14 @@ def load_mesh_target(parts: dict, *, name: str = "mesh", scale: float = 1.0, den
 
     Each file (OBJ or PLY, read with Mitsuba's loaders, so binary PLY works)
     is one part with one material, in metres times ``scale``. Coincident
-    vertices are welded; the union of the parts must be closed. Mitsuba must
-    have a variant set (:func:`lightcurves.scene.select_variant`).
+    vertices are welded; the union of the parts must be closed. Sets Mitsuba's
+    variant (:func:`lightcurves.scene.select_variant`) if none is set yet.
     """
-    import mitsuba as mi  # lazy: only this loader needs Mitsuba here
+    from lightcurves import scene  # lazy: only this loader needs Mitsuba (and scene sets it up)
+
+    mi = scene.mi
+    if mi.variant() is None:
+        scene.select_variant()
 
     if not parts:
         raise ValueError("load_mesh_target: give at least one part {name: (path, Material)}")

@@ -86,6 +86,14 @@ def test_user_obj_mesh_loads_with_part_materials(tmp_path, variant):
     t = load_mesh_target({"hull": (obj, Material("grey", 0.4))}, name="crate", density_kg_m3=3.0)
     assert t.mass.mass_kg == pytest.approx(6.0, rel=1e-6)
     np.testing.assert_allclose(t.J_diag, 6.0 / 12 * np.array([2, 5, 5]), rtol=1e-6)
+    ply = tmp_path / "fin.ply"
+    V2, F2 = _box([2, 0, 0], [2.5, 1, 1])  # a second closed solid beside the first
+    header = f"ply\nformat ascii 1.0\nelement vertex {len(V2)}\nproperty float x\nproperty float y\nproperty float z\nelement face {len(F2)}\nproperty list uchar int vertex_indices\nend_header\n"
+    ply.write_text(header + "".join(f"{x} {y} {z}\n" for x, y, z in V2) + "".join(f"3 {a} {b} {c}\n" for a, b, c in F2))
+    two = load_mesh_target({"hull": (obj, Material("grey", 0.4)), "fin": (ply, Material("white", 0.8))}, density_kg_m3=1.0)
+    assert [p.name for p in two.parts] == ["hull", "fin"] and two.part("fin").material.diffuse_albedo == 0.8
+    assert two.mass.mass_kg == pytest.approx(2.5, rel=1e-6)
+    np.testing.assert_allclose(two.mass.com_B, [(2.0 * 1.0 + 0.5 * 2.25) / 2.5, 0.5, 0.5], rtol=1e-6)
     bad = tmp_path / "bad.obj"
     bad.write_text("v 0 0 0\nf 1 2 3\n")
     with pytest.raises(ValueError):
