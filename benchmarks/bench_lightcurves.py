@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -155,5 +156,7 @@ def _rate_section() -> str:
 
 
 def run() -> str:
-    parts = ["## Light curves", "", _render_section(), "", _clean_section(), "", _rate_section()]
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    env = f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}, 1-min load average {load:.1f} at start (shared machine)."
+    parts = ["## Light curves", "", env, "", _render_section(), "", _clean_section(), "", _rate_section()]
     return "\n".join(parts)
