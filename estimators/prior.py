@@ -66,6 +66,33 @@ class SpinPrior:
         return cls((1.0 + error_fraction) * w, np.full(3, sigma), source=f"truth {100 * error_fraction:+.1f}%")
 
 
+def _unit(axis) -> np.ndarray:
+    a = np.asarray(axis, dtype=float)
+    n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
+    if not (np.isfinite(n) and n > 0):
+        raise ValueError(f"spin axis must be a non-zero 3-vector in the target frame, got {axis!r}")
+    return a / n
+
+
+def prior_from_rate(rate_rad_s, sigma_rad_s, axis_T=(0.0, 0.0, 1.0), source: str = "light curve") -> SpinPrior:
+    """A prior from a rate magnitude and its 1-σ — what a light curve gives — about an assumed axis.
+
+    A light curve gives the spin rate, not its axis or sense; ``axis_T`` (unit
+    vector in the target's principal frame, default ``z_T``, the paper's
+    one-axis tumbles) supplies them. ``rate_rad_s`` of ``None`` (no significant
+    period) is refused: a prior without a rate cannot be used.
+    """
+    if rate_rad_s is None:
+        raise ValueError("spin prior has no rate (the light curve gave no significant period)")
+    r = float(rate_rad_s)
+    s = None if sigma_rad_s is None else float(sigma_rad_s)
+    if not (np.isfinite(r) and r >= 0):
+        raise ValueError(f"spin prior rate must be a finite rate >= 0 (rad/s), got {rate_rad_s!r}")
+    if s is None or not (np.isfinite(s) and s > 0):
+        raise ValueError(f"spin prior sigma_rad_s must be positive (rad/s), got {sigma_rad_s!r}")
+    return SpinPrior(r * _unit(axis_T), np.full(3, s), source=source)
+
+
 def tuning_for_prior(prior: SpinPrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0) -> str:
     """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of ``002_…``).
 

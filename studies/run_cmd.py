@@ -22,6 +22,7 @@ Writes, after everything has run (nothing is written on an error):
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Optional
@@ -33,7 +34,7 @@ import typer
 from estimators.dynamics import k_from_inertia
 from estimators.error_state import ERROR_SLICES, boxminus
 from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
-from estimators.prior import PROXY_MODES, SpinPrior, initialize_with_prior, tuning_for_prior
+from estimators.prior import PROXY_MODES, SpinPrior, initialize_with_prior, prior_from_rate, tuning_for_prior
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from perception.simulated_pose import NOISE_MODELS, parse_faults, simulate_pose_measurements
 from studies.io import write_json, write_table
@@ -166,6 +167,8 @@ def run(
     prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises)."),
     prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (002 §5.3)."),
     prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error)."),
+    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis."),
+    prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis)."),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}."),
     tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'general'."),
     p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states)."),
@@ -210,8 +213,20 @@ def run(
     tr = simulate_truth(sc, duration, dt)
     w_true = tr.target[0, 10:13]
     spin = None
-    if prior != "none" or prior_rate_deg_s is not None:
-        if prior_rate_deg_s is not None:
+    if prior_json is not None and prior_rate_deg_s is not None:
+        raise ValueError("give the prior either as --prior-json or as --prior-rate-deg-s, not both")
+    if prior != "none" or prior_rate_deg_s is not None or prior_json is not None:
+        if prior_json is not None:
+            if not prior_json.is_file():
+                raise FileNotFoundError(f"--prior-json {prior_json} does not exist")
+            try:
+                d = json.loads(prior_json.read_text())
+            except json.JSONDecodeError as e:
+                raise ValueError(f"--prior-json {prior_json} is not JSON: {e}") from None
+            if not isinstance(d, dict) or d.get("rate_rad_s") is None:
+                raise ValueError(f"prior without a rate: --prior-json {prior_json} has no rate_rad_s (no significant period in the light curve)")
+            spin = prior_from_rate(d["rate_rad_s"], d.get("rate_sigma_rad_s"), _floats(prior_axis, 3, "--prior-axis"), source=str(prior_json))
+        elif prior_rate_deg_s is not None:
             if not prior_rate_deg_s.strip():
                 raise ValueError("prior without a rate: --prior-rate-deg-s must be 'wx,wy,wz' in deg/s")
             w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)"))

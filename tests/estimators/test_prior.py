@@ -7,7 +7,7 @@ from estimators.attitude import quat_to_dcm
 from estimators.error_state import boxplus
 from estimators.measurement import TargetRateMeasurement
 from estimators.navigation import run_navigation
-from estimators.prior import SpinPrior, initialize_with_prior, rate_proxy, tuning_for_prior
+from estimators.prior import SpinPrior, initialize_with_prior, prior_from_rate, rate_proxy, tuning_for_prior
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
@@ -26,6 +26,18 @@ def test_prior_needs_a_rate_and_a_positive_sigma():
     p = SpinPrior.from_truth([0.0, 0.0, 0.05], 0.05)
     np.testing.assert_allclose(p.w_T_T_rad_s, [0.0, 0.0, 0.0525])
     np.testing.assert_allclose(p.sigma_rad_s, 0.0025)
+
+
+def test_prior_from_a_light_curve_rate():
+    p = prior_from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 2.0))
+    np.testing.assert_allclose(p.w_T_T_rad_s, [0.0, 0.0, 0.05])
+    np.testing.assert_allclose(p.sigma_rad_s, 0.002)
+    with pytest.raises(ValueError, match="no rate"):
+        prior_from_rate(None, None)
+    with pytest.raises(ValueError, match="sigma_rad_s must be positive"):
+        prior_from_rate(0.05, None)
+    with pytest.raises(ValueError, match="spin axis"):
+        prior_from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 0.0))
 
 
 @pytest.mark.parametrize("name,expected", [("SC1", "sc1"), ("SC2", "sc2"), ("SC3", "sc3"), ("SC4", "sc4")])

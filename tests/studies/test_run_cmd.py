@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
+from studies.scenarios import get_scenario
 
 RERUN = Path(sys.executable).with_name("rerun")
 
@@ -59,6 +60,21 @@ def _bad_measurements(tmp_path):
     return p
 
 
+def test_prior_from_a_light_curve_json(tmp_path):
+    """`lcnav lightcurve prior --json` output as the prior (rate about the assumed z axis)."""
+    pj = tmp_path / "prior.json"
+    pj.write_text(json.dumps({"significant": True, "rate_rad_s": 0.0504, "rate_sigma_rad_s": 0.001}))
+    out = tmp_path / "run"
+    assert main(["run", "--scenario", "SC1", "--duration", "20", "--prior", "init", "--prior-json", str(pj), "--out", str(out)]) == 0
+    m = json.loads((out / "metrics.json").read_text())
+    np.testing.assert_allclose(m["config"]["prior_w_T_T_rad_s"], [0.0, 0.0, 0.0504])
+    df = pd.read_parquet(out / "states.parquet")
+    # ω_ST_0 = R(q̂_0) ω_S − ω_prior with q̂_0 = 1 and the servicer's orbit rate about its z
+    n = get_scenario("SC1").mean_motion_rad_s  # the servicer is LVLH-pointing: ω_S_S = [0, 0, n]
+    assert df["est_w_ST_T_z_rad_s"].iloc[0] == pytest.approx(n - 0.0504, abs=1e-12)
+    assert df["est_w_ST_T_x_rad_s"].iloc[0] == 0.0 and df["est_w_ST_T_y_rad_s"].iloc[0] == 0.0
+
+
 @pytest.mark.parametrize(
     "extra, message",
     [
@@ -68,6 +84,7 @@ def _bad_measurements(tmp_path):
         (["--p0-diag", ",".join(["1"] * 13 + ["-1"])], "P_0 must be positive definite"),
         (["--p0-diag", "1,2"], "--p0-diag must be 14"),
         ("MEAS", "row 4 has a NaN or Inf measurement"),
+        ("NORATE", "prior without a rate"),
         (["--prior", "sometimes"], "--prior must be one of none|init|proxy"),
         (["--tuning", "fast"], "unknown tuning 'fast'"),
         (["--fault", "10"], "--fault must be 2"),
@@ -78,6 +95,10 @@ def test_bad_input_one_line_nonzero_exit_no_output(tmp_path, capsys, extra, mess
     out = tmp_path / "out"
     if extra == "MEAS":
         extra = ["--measurements", str(_bad_measurements(tmp_path))]
+    if extra == "NORATE":  # a light curve without a significant period
+        pj = tmp_path / "prior.json"
+        pj.write_text(json.dumps({"significant": False, "rate_rad_s": None, "rate_sigma_rad_s": None}))
+        extra = ["--prior", "proxy", "--prior-json", str(pj)]
     code = main(["run", "--scenario", "SC1", "--duration", "10", "--dt", "1", "--out", str(out), *extra])
     err = capsys.readouterr().err
     assert code != 0
