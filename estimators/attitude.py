@@ -147,7 +147,7 @@ def mrp_to_dcm(sigma) -> np.ndarray:
     return quat_to_dcm(mrp_to_quat(sigma))
 
 
-def dcm_to_mrp(C, *, eps: float = 1e-4) -> np.ndarray:
+def dcm_to_mrp(C, *, eps: float = 1e-2) -> np.ndarray:
     """MRP with ``|σ| ≤ 1`` of a rotation matrix, eqs 6–7 of ``000_…``.
 
     In lcnav's convention (``R(σ) = C``) eq. 6 reads
@@ -162,7 +162,8 @@ def dcm_to_mrp(C, *, eps: float = 1e-4) -> np.ndarray:
     Near 180° (``ζ < eps``) numerator and denominator both vanish and eq. 7 is
     used: ``σ σᵀ = ½ (I + C)`` gives ``|σ_i|`` on the diagonal and the signs
     from the largest component's row; the antisymmetric part picks between
-    ``±σ`` (both are valid MRPs at exactly 180°).
+    ``±σ`` (both are valid MRPs at exactly 180°). Subtracting ``q0² I`` (known
+    from the trace) makes the eq. 7 branch exact slightly off 180° too.
     """
     C = _as_float(C)
     shape = C.shape[:-2]
@@ -177,14 +178,17 @@ def dcm_to_mrp(C, *, eps: float = 1e-4) -> np.ndarray:
         z = zeta[regular]
         out[regular] = vee[regular] / (z * (z + 2.0))[:, None]  # eq. 6
     for i in np.flatnonzero(~regular):
-        M = 0.5 * (np.eye(3) + 0.5 * (Cf[i] + Cf[i].T))  # eq. 7, symmetric part
+        # q0 from the antisymmetric part (|C − Cᵀ| = 4 q0 |q_v|, |q_v| ≈ 1 here) is
+        # linear in round-off, where √(Tr C + 1) would amplify it to √eps.
+        q0 = np.linalg.norm(vee[i]) / (4.0 * np.sqrt(max(1.0 - 0.25 * zeta[i] ** 2, 0.5)))
+        # eq. 7 on the symmetric part; ½(I + sym C) = q0² I + q_v q_vᵀ, so removing
+        # q0² I makes it exact (not only at 180°) near the singularity.
+        M = 0.5 * (np.eye(3) + 0.5 * (Cf[i] + Cf[i].T)) - q0 * q0 * np.eye(3)
         j = int(np.argmax(np.diag(M)))
-        sj = np.sqrt(max(M[j, j], 0.0))
-        s = M[j] / sj
-        if np.dot(s, vee[i]) < 0.0:
-            s = -s
-        q0 = 0.5 * zeta[i]
-        out[i] = s / np.linalg.norm(s) * np.sqrt(max(1.0 - q0 * q0, 0.0)) / (1.0 + q0)
+        qv = M[j] / np.sqrt(max(M[j, j], 1e-300))
+        if np.dot(qv, vee[i]) < 0.0:
+            qv = -qv
+        out[i] = qv / (1.0 + q0)
     return out.reshape(shape + (3,))
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import sys
 
-import click
 import typer
 
 app = typer.Typer(
@@ -20,7 +19,13 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
+
+@app.callback()
+def _root() -> None:
+    """lcnav: light curves -> spin priors -> relative navigation around tumbling targets."""
+
 # Each area adds one line here: `from studies import X; X.register(app)`.
+from studies import simulate_cmd; simulate_cmd.register(app)  # noqa: E402,E702
 
 #: Exceptions that mean "the user's input is wrong": one line, exit 2.
 USER_ERRORS = (ValueError, KeyError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError)
@@ -30,14 +35,16 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``lcnav`` console script."""
     try:
         app(args=argv, standalone_mode=False)
-    except click.exceptions.Exit as e:
+    except typer.Exit as e:
         return e.exit_code
-    except click.exceptions.Abort:
+    except typer.Abort:
         print("lcnav: aborted", file=sys.stderr)
         return 130
-    except click.ClickException as e:
-        print(f"lcnav: {e.format_message()}", file=sys.stderr)
-        return e.exit_code
+    except typer.exceptions.TyperException as e:  # usage errors from the (vendored) click layer
+        message = e.format_message() if hasattr(e, "format_message") else str(e)
+        if message:
+            print(f"lcnav: {message}", file=sys.stderr)
+        return int(getattr(e, "exit_code", 2))
     except USER_ERRORS as e:
         msg = e.args[0] if isinstance(e, KeyError) and e.args else e
         print(f"lcnav: error: {msg}", file=sys.stderr)
