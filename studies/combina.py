@@ -9,9 +9,10 @@ tuning: ``P_0 = 0.1 I`` (eq. 48) and ``R_s = R_a = 0.01 I`` in scaled units;
 the initial estimates are drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in
 position).
 
-Truth is two absolute integrations (:func:`estimators.dynamics.integrate_absolute`,
-DOP853 at 1e-12), chaser and target, turned into the LVLH relative state; the
-filter's NERM model (eq. 9) is thus checked against independent dynamics.
+The scenario is ``studies.scenarios``' ``COMBINA``; truth is its two absolute
+integrations (:func:`studies.truth.simulate_truth`, DOP853 at 1e-12), chaser
+and target, turned into the LVLH relative state, so the filter's NERM model
+(eq. 9) is checked against independent dynamics.
 
 Targets: ``asymmetric`` has ``k = [0.03, −0.1]`` (eq. 47, a box-wing);
 ``symmetric`` is a rocket body with ``A = C = 4 B`` (``k = [ln 4, −ln 4]``, the
@@ -33,33 +34,31 @@ shows for a precessing rocket body).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 
-from estimators.attitude import mrp_to_quat, quat_to_dcm, quat_to_mrp
+from estimators.attitude import quat_to_dcm, quat_to_mrp, rotvec_to_quat
 from estimators.combina_attitude import AttitudeUKF, nearest_mrp
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
 from estimators.combina_translation import ScaledUnits, TranslationalUKF
-from estimators.dynamics import MU_EARTH, R_EARTH, circular_orbit_state, inertia_from_k, integrate_absolute, lvlh_dcm, spherical_from_axis
+from estimators.dynamics import lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
 from estimators.symmetry import SymmetryCheck, SymmetryDetector
 from perception.simulated_bcpd import PoseMeasurement, SimulatedBCPD
+from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, Scenario, get_scenario
+from studies.truth import simulate_truth
 
 # ---------------------------------------------------------------- scenario (000_… §VI)
 
-ALTITUDE_M = 800e3
-R_T_M = R_EARTH + ALTITUDE_M
-N_RAD_S = float(np.sqrt(MU_EARTH / R_T_M**3))
-UNITS = ScaledUnits(TU_s=963.65, LU_m=12.0)
+SCENARIO = get_scenario("COMBINA")
+R_T_M = SCENARIO.orbit_radius_m
+N_RAD_S = SCENARIO.mean_motion_rad_s
+UNITS = ScaledUnits(TU_s=TU_COMBINA_S, LU_m=LU_COMBINA_M)
 TU, LU = UNITS.TU_s, UNITS.LU_m
-R0_LU = np.array([2.0, 0.0, 0.2])  # eq. 46
-V0_LU_TU = np.array([0.0, -4.0, 0.0])
-SIGMA0 = np.array([-0.083, 0.220, -0.500])  # eq. 47
-W0_RAD_TU = np.array([-0.3953, -0.7065, -0.8153])
-K_TARGETS = {"asymmetric": np.array([0.03, -0.1]), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
+K_TARGETS = {"asymmetric": np.array(SCENARIO.k), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
 SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
@@ -128,38 +127,31 @@ class CombinaConfig:
 
 @dataclass(frozen=True)
 class Truth:
-    """True relative translation and target attitude at the measurement epochs."""
+    """True relative translation (LVLH) and target attitude at the measurement epochs."""
 
     t: np.ndarray  #: (N,) s
-    r_L: np.ndarray  #: (N, 3) m
-    v_L: np.ndarray  #: (N, 3) m/s
+    r_L: np.ndarray  #: (N, 3) m, target relative to the chaser
+    v_L: np.ndarray  #: (N, 3) m/s, seen in the rotating LVLH frame
     q_IT: np.ndarray  #: (N, 4)
     w_T: np.ndarray  #: (N, 3) rad/s
     k: np.ndarray  #: (2,)
     J_T: np.ndarray  #: (3,) principal inertia, B = 1
-    C_LI: np.ndarray  #: (N, 3, 3) chaser LVLH
 
 
-def simulate_truth(target: str, t_s) -> Truth:
-    """Integrate chaser and target (Kepler + Euler) and form the LVLH relative state."""
-    t = np.asarray(t_s, dtype=float)
-    k = K_TARGETS[target]
-    J = inertia_from_k(*k)
-    chaser_rv = circular_orbit_state(R_T_M, inclination_rad=np.deg2rad(98.6), raan_rad=0.3, arg_lat_rad=0.0)
-    C_LI0 = lvlh_dcm(chaser_rv[:3], chaser_rv[3:])
+def scenario_for(target: str) -> Scenario:
+    """The COMBINA scenario with the target's inertia ratios."""
+    return replace(SCENARIO, name=f"COMBINA-{target}", k=tuple(float(v) for v in K_TARGETS[target]))
+
+
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float) -> Truth:
+    """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH."""
+    tr = simulate_truth(scenario_for(target), duration_s, dt_s)
+    s, g = tr.servicer, tr.target
+    C_LI = lvlh_dcm(s[:, 0:3], s[:, 3:6])
     w_L = np.array([0.0, 0.0, N_RAD_S])
-    r_L0 = R0_LU * LU
-    v_L0 = V0_LU_TU * LU / TU
-    r_T = chaser_rv[:3] + C_LI0.T @ r_L0
-    v_T = chaser_rv[3:] + C_LI0.T @ (v_L0 + np.cross(w_L, r_L0))  # transport theorem
-    chaser = np.concatenate([chaser_rv, [1.0, 0, 0, 0], np.zeros(3)])
-    target_y = np.concatenate([r_T, v_T, mrp_to_quat(SIGMA0), W0_RAD_TU / TU])
-    tc = integrate_absolute(chaser, t, np.ones(3))
-    tt = integrate_absolute(target_y, t, J)
-    C_LI = lvlh_dcm(tc.r_I, tc.v_I)
-    r_L = np.einsum("nij,nj->ni", C_LI, tt.r_I - tc.r_I)
-    v_L = np.einsum("nij,nj->ni", C_LI, tt.v_I - tc.v_I) - np.cross(w_L, r_L)
-    return Truth(t=t, r_L=r_L, v_L=v_L, q_IT=tt.q_IB, w_T=tt.w_B, k=k.copy(), J_T=J, C_LI=C_LI)
+    r_L = np.einsum("nij,nj->ni", C_LI, g[:, 0:3] - s[:, 0:3])
+    v_L = np.einsum("nij,nj->ni", C_LI, g[:, 3:6] - s[:, 3:6]) - np.cross(w_L, r_L)  # transport theorem
+    return Truth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=K_TARGETS[target].copy(), J_T=tr.J_T_diag)
 
 
 def angular_momentum_I(q_IT, w_T, J_T) -> np.ndarray:
@@ -225,8 +217,8 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     n_meas = int(np.floor(cfg.effective_duration_s * cfg.rate_hz))
     t = dt * np.arange(n_meas + 1)
     if truth is None:
-        truth = simulate_truth(cfg.target, t)
-    elif truth.t.shape != t.shape or not np.allclose(truth.t, t):
+        truth = simulate_lvlh_truth(cfg.target, t[-1], dt)
+    if truth.t.shape != t.shape or not np.allclose(truth.t, t):
         raise ValueError("truth epochs do not match the configuration's measurement epochs")
     if source is None:
         source = make_source(cfg, rng_meas)
@@ -244,7 +236,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         sd_w = cfg.prior_error * w_norm0 / np.sqrt(3.0)  # |error| ≈ prior_error |ω|
         x0_a[3:6] = truth.w_T[0] + sd_w * rng.normal(size=3)
         P0_a[3:6, 3:6] = sd_w**2 * np.eye(3)
-        prior_rate = w_norm0 * (1.0 + cfg.prior_error * rng.normal())
+        prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
     R_s = R_SCALED * LU**2 * np.eye(3)
     R_a = R_SCALED * np.eye(3)
 
@@ -346,13 +338,13 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: PoseMeasure
     if cfg.axis_frame == "known":
         return AxisymmetricUKF(x0, P0, C_GammaI=C), C
     sd = np.deg2rad(5.0)
-    dq = mrp_to_quat(np.tan(sd * rng.normal(size=3) / 4.0))  # small rotation; MRP ≈ θ/4
+    dq = rotvec_to_quat(sd * rng.normal(size=3))
     C_guess = quat_to_dcm(dq) @ C
     sig0 = frame_mrp(C_guess)
     phi0, delta0 = spherical_from_axis(C_guess @ J_meas_I)
     P0f = np.zeros((6, 6))
     P0f[:3, :3] = P0
-    P0f[3:, 3:] = (sd / 4.0) ** 2 * np.eye(3) * 4.0  # 2-σ margin on the frame error
+    P0f[3:, 3:] = (2.0 * sd / 4.0) ** 2 * np.eye(3)  # MRP ≈ θ/4; 1-σ set to twice the drawn error's
     return AxisymmetricUKF(np.concatenate([[float(phi0), float(delta0), g0], sig0]), P0f), C_guess
 
 
