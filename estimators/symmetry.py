@@ -16,8 +16,9 @@ Once declared it stays declared.
 Robustness (not in the paper): a single bad registration of an asymmetric
 target makes *two* consecutive pairs disagree (into and out of it), so a few
 outliers close together could fill half a window. Each new measurement is
-therefore compared with the previous two (eq. 34 with ``Δt`` to each) and the
-smaller discrepancy is kept: an isolated outlier then counts once, while for a
+therefore also compared with the one before the previous (eq. 34 with its
+``Δt``) when the consecutive discrepancy exceeds the threshold, and the smaller
+discrepancy is kept: an isolated outlier then counts once, while for a
 symmetric target both comparisons are large (the roll is random each time).
 """
 
@@ -80,12 +81,14 @@ class SymmetryDetector:
         self._last.append((t, C))
         if not prev:
             return None
-        best = None
-        for t0, C0 in prev:
+        checks = []
+        for t0, C0 in reversed(prev):  # the consecutive pair first
             phi = float(dcm_angle(C0, C))  # eq. 33 (corrected)
             phi_hat = rate * (t - t0)  # eq. 34
-            if best is None or abs(phi - phi_hat) < best[2]:
-                best = (phi, phi_hat, abs(phi - phi_hat))
+            checks.append((phi, phi_hat, abs(phi - phi_hat)))
+        best = checks[0]
+        if best[2] > self.threshold_rad:  # only then does the two-back comparison matter
+            best = min(checks, key=lambda c: c[2])
         phi, phi_hat, d = best
         self._d.append(d)
         med = float(np.median(self._d)) if len(self._d) == self.window else float("nan")
