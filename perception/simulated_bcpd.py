@@ -33,8 +33,8 @@ from estimators.attitude import quat_multiply, quat_normalize, quat_to_dcm, rotv
 
 
 @dataclass(frozen=True)
-class PoseMeasurement:
-    """One BCPD-like registration result."""
+class RegisteredPose:
+    """One registration result as the filters consume it (also the rendered chain's, once converted)."""
 
     t: float  #: s since the scenario epoch
     r_L: np.ndarray  #: (3,) m, target centre of mass relative to the chaser, LVLH (eq. 8)
@@ -91,8 +91,13 @@ class SimulatedBCPD:
         u = self.rng.normal(size=3)
         return u / np.linalg.norm(u)
 
-    def measure(self, t: float, r_L_true, q_IT_true) -> PoseMeasurement:
-        """A registration of the target at true position ``r_L_true`` (m) and attitude ``q_IT_true``."""
+    def measure(self, t: float, r_L_true, q_IT_true, *, r_L_hat=None, q_IT_hat=None) -> RegisteredPose:
+        """A registration of the target at true position ``r_L_true`` (m) and attitude ``q_IT_true``.
+
+        ``r_L_hat``, ``q_IT_hat`` (the filters' estimates, which seed a real
+        registration through eq. 3) are accepted for interface compatibility and
+        not used: the simulated errors do not depend on them.
+        """
         rng = self.rng
         r = np.asarray(r_L_true, dtype=float) + self.position_sigma_m * rng.normal(size=3)
         dq = rotvec_to_quat(self.attitude_sigma_rad * rng.normal(size=3))
@@ -110,4 +115,4 @@ class SimulatedBCPD:
             roll = rotvec_to_quat(rng.uniform(0.0, 2.0 * np.pi) * self.symmetry_axis_T)
             dq = quat_multiply(dq, roll)
         q = quat_normalize(quat_multiply(np.asarray(q_IT_true, dtype=float), dq))  # error applied in T
-        return PoseMeasurement(t=float(t), r_L=r, q_IT=q, scale=float(scale), kind=kind)
+        return RegisteredPose(t=float(t), r_L=r, q_IT=q, scale=float(scale), kind=kind)

@@ -34,12 +34,13 @@ shows for a precessing rocket body).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 
-from estimators.attitude import quat_to_dcm, quat_to_mrp, rotvec_to_quat
+from estimators.attitude import quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
 from estimators.combina_attitude import AttitudeUKF, nearest_mrp
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
@@ -47,7 +48,7 @@ from estimators.combina_translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
 from estimators.symmetry import SymmetryCheck, SymmetryDetector
-from perception.simulated_bcpd import PoseMeasurement, SimulatedBCPD
+from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
 from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, Scenario, get_scenario
 from studies.truth import simulate_truth
 
@@ -78,7 +79,9 @@ class MeasurementUnavailable(ValueError):
 class MeasurementSource(Protocol):
     """Anything that returns a BCPD pose registration of the target at a true pose."""
 
-    def measure(self, t: float, r_L_true, q_IT_true) -> PoseMeasurement: ...
+    def measure(self, t: float, r_L_true, q_IT_true, *, r_L_hat, q_IT_hat) -> RegisteredPose:
+        """Register the target at the true pose; ``r_L_hat``, ``q_IT_hat`` are the filters' predictions (eq. 3)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -186,12 +189,13 @@ class CombinaRun:
 
     config: CombinaConfig
     truth: Truth
-    measurements: list[PoseMeasurement]
+    measurements: list[RegisteredPose]
     steps: list[Step]
     gates: list[GateDecision]
     symmetry: list[SymmetryCheck]
     switch_time_s: float | None
     C_GammaI: np.ndarray | None  #: the frame the axisymmetric filter used (None before a switch)
+    iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
     proxy_updates: int = 0
     extras: dict = field(default_factory=dict)
 
@@ -247,7 +251,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     detector = SymmetryDetector()
     gates: list[GateDecision] = []
     checks: list[SymmetryCheck] = []
-    meas: list[PoseMeasurement] = []
+    meas: list[RegisteredPose] = []
     steps: list[Step] = []
     switch_time = None
     proxy_updates = 0
@@ -264,7 +268,9 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, spin_e=se, spin_sd=ssd, shadow_switch=switched))
 
     record(0.0, False)
+    iteration_s = np.zeros(n_meas)
     for i in range(1, n_meas + 1):
+        tic = time.perf_counter()
         ti = float(t[i])
         w_hat_prev = att.x[3:6].copy()
         trans.predict(dt)
@@ -272,7 +278,8 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
             att.predict(dt)
         else:
             axi.predict(dt)
-        m = source.measure(ti, truth.r_L[i], truth.q_IT[i])
+        q_hat = att.q_IT if axi is None else _attitude_with_axis(axi.axis_I(), att.q_IT)
+        m = source.measure(ti, truth.r_L[i], truth.q_IT[i], r_L_hat=trans.x[:3], q_IT_hat=q_hat)
         meas.append(m)
         switched = False
 
@@ -309,12 +316,26 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
             gates.append(g)
             if g.accepted:
                 axi.correct(inn)
+        iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, proxy_updates=proxy_updates, extras={"prior_rate_rad_s": prior_rate})
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, extras={"prior_rate_rad_s": prior_rate})
 
 
-def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: PoseMeasurement, att: AttitudeUKF, rng: np.random.Generator):
+def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
+    """An attitude whose body ``y`` axis is ``J_I``: ``q_ref`` turned by the smallest rotation that does it.
+
+    In axisymmetric mode only the symmetry axis is estimated; this is the seed
+    attitude a registration needs (its roll about the axis is immaterial).
+    """
+    y = quat_to_dcm(q_ref)[:, 1]
+    c = np.cross(y, J_I)
+    ang = np.arctan2(np.linalg.norm(c), float(y @ J_I))
+    axis = c / np.linalg.norm(c) if np.linalg.norm(c) > 0 else np.zeros(3)
+    return quat_multiply(rotvec_to_quat(ang * axis), q_ref)
+
+
+def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredPose, att: AttitudeUKF, rng: np.random.Generator):
     """Initialise the axisymmetric filter at the switch (§V.C).
 
     ``I_Γ`` is built about the true angular momentum (the paper's known-input
