@@ -24,12 +24,14 @@ rendered chain is available) the rendered stereo + BCPD chain.
 
 Spin priors (``--prior``, ``002_…`` §6): ``init`` draws ``ω_0`` around the truth
 with a relative error ``prior_error`` (isotropic, ``|ω_0 − ω| ≈ prior_error |ω|``)
-and sets the ``ω`` block of ``P_0`` to ``(prior_error |ω|)²/3 · I``; ``proxy`` does the same and, whenever the attitude
-filter rejects a BCPD measurement, updates it with the prior's spin *rate*
-``|ω|`` instead (a light curve gives a rate, not a body-frame vector; ``002_…``'s
-fixed-vector proxy is valid only for 1-axis spin). In axisymmetric mode the
-prior's rate initialises ``Γ/A`` (the precession rate is what the light curve
-shows for a precessing rocket body).
+and sets the ``ω`` block of ``P_0`` to ``(prior_error |ω_0|)²/3 · I``. ``proxy``
+does the same and, whenever the attitude filter rejects a BCPD measurement,
+updates it with the prior's spin *rate* ``|ω_0|`` instead (a light curve gives
+a rate, not a body-frame vector; ``002_…``'s fixed-vector proxy is valid only
+for 1-axis spin), with variance ``(prior_error |ω_0|)²`` inflated at each reuse
+so that the reuses together never carry more than the prior's own
+information. In axisymmetric mode the prior's rate initialises ``Γ/A`` (the
+precession rate is what the light curve shows for a precessing rocket body).
 """
 
 from __future__ import annotations
@@ -237,10 +239,10 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     w_norm0 = float(np.linalg.norm(truth.w_T[0]))
     prior_rate = None
     if cfg.prior != "none":
-        sd_w = cfg.prior_error * w_norm0 / np.sqrt(3.0)  # |error| ≈ prior_error |ω|
-        x0_a[3:6] = truth.w_T[0] + sd_w * rng.normal(size=3)
-        P0_a[3:6, 3:6] = sd_w**2 * np.eye(3)
+        # the prior's error is drawn from the truth; its stated uncertainty uses only the prior itself
+        x0_a[3:6] = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)  # |error| ≈ prior_error |ω|
         prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
+        P0_a[3:6, 3:6] = (cfg.prior_error * prior_rate) ** 2 / 3.0 * np.eye(3)
     R_s = R_SCALED * LU**2 * np.eye(3)
     R_a = R_SCALED * np.eye(3)
 
@@ -305,8 +307,12 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
                     switched = att.correct(inn)
                     att_ok = True
             if not att_ok and cfg.prior == "proxy":
-                att.correct(att.rate_proxy_innovation(prior_rate, (cfg.prior_error * w_norm0) ** 2))
+                # The same prior is reused at every rejection; its error is not white. The n-th use
+                # gets variance n(n+1)·σ², so the uses add up to the prior's information 1/σ² at most
+                # (Σ 1/(n(n+1)) = 1) instead of n/σ², which made a 2σ-biased prior pull ω off.
                 proxy_updates += 1
+                var = proxy_updates * (proxy_updates + 1) * (cfg.prior_error * prior_rate) ** 2
+                att.correct(att.rate_proxy_innovation(prior_rate, var))
             if detector.detected:
                 switch_time = ti
                 axi, C_GammaI = _start_axisymmetric(cfg, truth, i, m, att, rng)
