@@ -199,7 +199,7 @@ class CombinaRun:
     C_GammaI: np.ndarray | None  #: the frame the axisymmetric filter used (None before a switch)
     iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
     proxy_updates: int = 0
-    extras: dict = field(default_factory=dict)
+    prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
 
 
 def _nan(n):
@@ -325,7 +325,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, extras={"prior_rate_rad_s": prior_rate})
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate)
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
@@ -357,7 +357,8 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredP
     phi0, delta0 = spherical_from_axis(C @ J_meas_I)
     g_true = float(np.linalg.norm(Gamma_I) / truth.J_T[0])
     if cfg.prior != "none":
-        g0, var_g = g_true * (1.0 + cfg.prior_error * rng.normal()), (cfg.prior_error * g_true) ** 2
+        g0 = g_true * (1.0 + cfg.prior_error * rng.normal())  # the light curve's dominant (precession) rate
+        var_g = (cfg.prior_error * g0) ** 2
     else:
         g0, var_g = float(np.linalg.norm(att.x[3:6])), P0_SCALED / TU**2
     x0 = [float(phi0), float(delta0), g0]

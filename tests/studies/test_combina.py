@@ -113,3 +113,14 @@ def test_every_gate_decision_is_recorded(asym):
     assert g["accepted"] + g["rejected_scale"] + g["rejected_mahalanobis"] == 2 * n
     n_deformed = sum(mm.kind == "deformed" for mm in run.measurements)
     assert g["by_filter"]["translation"]["rejected_scale"] == n_deformed
+
+
+def test_proxy_rate_replaces_rejected_measurements(truths):
+    """--prior proxy: one rate update per rejected attitude measurement; the filter stays consistent."""
+    for seed in range(3):
+        run = run_combina(CombinaConfig(target="asymmetric", seed=seed, prior="proxy"), truth=truths["asymmetric"])
+        m = run_metrics(run)
+        rejected = m["gate_counts"]["by_filter"]["attitude"]
+        assert run.proxy_updates == rejected["rejected_scale"] + rejected["rejected_mahalanobis"] > 0
+        for name in ("sigma", "w"):
+            assert m["components"][name]["converged"] and m["components"][name]["fraction_within_3sigma"] >= 0.95
