@@ -25,7 +25,6 @@ MAHALANOBIS_CONFIDENCE = 0.99
 """Probability of accepting a correct measurement (eq. 19 of ``000_…``)."""
 
 REASON_SCALE = "scale outside bounds"
-REASON_MAHALANOBIS = "e2 above upper bound"  # the reason estimators.gates gives
 
 
 def scale_gate(scale: float, *, t: float, source: str, bounds: tuple[float, float] = SCALE_BOUNDS) -> GateDecision:
