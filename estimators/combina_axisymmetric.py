@@ -130,10 +130,6 @@ class AxisymmetricUKF:
         self.Q = None if Q is None else np.asarray(Q, dtype=float)
 
     @property
-    def estimates_frame(self) -> bool:
-        return self.C_GammaI is None
-
-    @property
     def x(self) -> np.ndarray:
         return self.core.x
 

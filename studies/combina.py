@@ -180,6 +180,7 @@ class Step:
     x_ax: np.ndarray  #: (3,) [φ, δ, Γ/A] (nan in nominal mode)
     sd_ax: np.ndarray  #: (3,)
     axis_I: np.ndarray  #: (3,) estimated symmetry axis in I (nan in nominal mode)
+    C_GammaI: np.ndarray  #: (3, 3) the axisymmetric filter's current frame I_Γ (nan in nominal mode)
     spin_e: np.ndarray  #: (2,) [e, (ω_y/A)²] and
     spin_sd: np.ndarray  #: their 1-σ (nan in nominal mode)
     shadow_switch: bool
@@ -196,7 +197,7 @@ class CombinaRun:
     gates: list[GateDecision]
     symmetry: list[SymmetryCheck]
     switch_time_s: float | None
-    C_GammaI: np.ndarray | None  #: the frame the axisymmetric filter used (None before a switch)
+    C_GammaI: np.ndarray | None  #: the axisymmetric filter's initial frame I_Γ (None without a switch)
     iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
     proxy_updates: int = 0
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
@@ -262,12 +263,12 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         mode = "nominal" if axi is None else "axisymmetric"
         xa, sda = (att.x.copy(), np.sqrt(np.diag(att.P))) if axi is None else (_nan(8), _nan(8))
         if axi is None:
-            xax, sdax, ax_I, se, ssd = _nan(3), _nan(3), _nan(3), _nan(2), _nan(2)
+            xax, sdax, ax_I, se, ssd, C = _nan(3), _nan(3), _nan(3), _nan(2), _nan(2), np.full((3, 3), np.nan)
         else:
-            xax, sdax, ax_I = axi.x[:3].copy(), np.sqrt(np.diag(axi.P))[:3], axi.axis_I()
+            xax, sdax, ax_I, C = axi.x[:3].copy(), np.sqrt(np.diag(axi.P))[:3], axi.axis_I(), axi.frame_dcm().copy()
             sq = axi.spin_quantities()
             se, ssd = sq.x_e, np.sqrt(np.diag(sq.P_e))
-        steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, spin_e=se, spin_sd=ssd, shadow_switch=switched))
+        steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, C_GammaI=C, spin_e=se, spin_sd=ssd, shadow_switch=switched))
 
     record(0.0, False)
     iteration_s = np.zeros(n_meas)
@@ -400,11 +401,11 @@ def component_errors(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray,
     out["k"] = (t[nom], xa[:, 6:8] - tr.k, sda[:, 6:8])
     ax = ~nom
     if np.any(ax):
-        C = run.C_GammaI
+        C = np.array([s.C_GammaI for s in S])[ax]  # the filter's own frame at each step
         xx = np.array([s.x_ax for s in S])[ax]
         sdx = np.array([s.sd_ax for s in S])[ax]
         J_true_I = quat_to_dcm(tr.q_IT[ax])[:, :, 1]  # body y axis in I
-        phi_t, delta_t = spherical_from_axis(J_true_I @ C.T)
+        phi_t, delta_t = spherical_from_axis(np.einsum("nij,nj->ni", C, J_true_I))
         Gam = angular_momentum_I(tr.q_IT[ax], tr.w_T[ax], tr.J_T)
         g_t = np.linalg.norm(Gam, axis=1) / tr.J_T[0]
         out["phi"] = (t[ax], wrap_pi(xx[:, 0] - phi_t)[:, None], sdx[:, :1])

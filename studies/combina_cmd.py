@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 import typer
 
+from estimators.attitude import mrp_to_quat
 from studies.combina import CombinaConfig, CombinaRun, component_errors, make_source, run_combina, run_metrics
 from studies.io import write_json, write_table
 from studies.recording import TIMELINE, recording, rr, send_poses, send_scalars, time_column
@@ -80,6 +81,8 @@ def write_recording(path: Path, run: CombinaRun) -> None:
             send_scalars(rec, f"/estimate/{filt}/{name}/minus_3sigma", t, -3.0 * sd, names)
         t = run.truth.t
         send_poses(rec, "/truth/target", t, run.truth.r_L, run.truth.q_IT)
+        nom = np.array([s.mode == "nominal" for s in run.steps])
+        send_poses(rec, "/estimate/attitude/target", t[nom], np.array([s.x_s[:3] for s in run.steps])[nom], mrp_to_quat(np.array([s.x_a[:3] for s in run.steps])[nom]))
         rr.send_columns("/truth/r_L", indexes=[time_column(t)], columns=rr.Points3D.columns(positions=run.truth.r_L).partition(ones(t.size)), recording=rec)
         est = np.array([s.x_s[:3] for s in run.steps])
         rr.send_columns("/estimate/translation/r_L", indexes=[time_column(t)], columns=rr.Points3D.columns(positions=est).partition(ones(t.size)), recording=rec)

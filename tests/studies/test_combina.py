@@ -124,3 +124,13 @@ def test_proxy_rate_replaces_rejected_measurements(truths):
         assert run.proxy_updates == rejected["rejected_scale"] + rejected["rejected_mahalanobis"] > 0
         for name in ("sigma", "w"):
             assert m["components"][name]["converged"] and m["components"][name]["fraction_within_3sigma"] >= 0.95
+
+
+def test_axisymmetric_variant_estimating_the_frame(truths):
+    """The variant that also estimates σ_IΓ (frame started 5° off, 1-σ per axis) still ends below 5°."""
+    for seed in range(3):
+        run = run_combina(CombinaConfig(target="symmetric", seed=seed, axis_frame="estimated"), truth=truths["symmetric"])
+        m = run_metrics(run)
+        assert m["symmetry_detected"] and m["axis_error_deg"] < 5.0
+        t, e, sd = component_errors(run)["gamma_over_a"]
+        assert abs(e[-1, 0]) <= 3 * sd[-1, 0]
