@@ -8,12 +8,23 @@ boresight (the cameras look along ``−z_C``). The left camera is at the origin
 of C, the right one at ``+b y_C``, both looking along ``−z_C`` (parallel axes,
 Fig. 4 of ``000_…``). C is the servicer body frame S (DESIGN.md).
 
-Rendering uses W = C as Mitsuba's world: the target is posed in it
-(``v_C = C_CT v_T + r_TC_C``), the Sun is a directional emitter from ``sun_C``
-(unit vector from the target to the Sun), the background is black, and an
-optional point lamp sits between the cameras. The scene is built once and
-re-posed through :class:`lightcurves.scene.ScenePoser`, so a sequence of
-frames does not reload meshes.
+The target pose is given as ``v_C = C_CT v_T + r_TC_C``. Rendering uses the
+target frame as Mitsuba's world (W = T, as the light-curve renderer does): the
+meshes stay put and the two cameras, the Sun (a directional emitter from
+``sun_C``, the unit vector from the target to the Sun) and an optional point
+lamp between the cameras are moved through
+:class:`lightcurves.scene.ScenePoser`, so a sequence of frames neither
+reloads nor rewrites meshes. The background is black.
+
+Surface texture. The shared targets are flat-shaded meshes with uniform
+materials; a stereo matcher finds nothing on a uniform face (only corners),
+unlike on a real spacecraft (MLI wrinkles, cell grids, bolts — the paper's
+Envisat model is textured). With ``texture=True`` (default) each part's
+diffuse reflectance is modulated by a fixed random pattern (blurred noise,
+blobs of ~6 cm, values 0.35–1 of the material's albedo) mapped on every face
+by planar projection along its dominant normal axis; the geometry and the
+specular lobe are the shared ones. ``texture=False`` renders the bare
+materials.
 
 The ground-truth depth (``z`` along the boresight, m) comes from Mitsuba's
 ``aov`` integrator (``dd.y``, the ray distance from the near-clip point) and
@@ -140,6 +151,50 @@ def pointing_dcm(los_I, up_I) -> np.ndarray:
     return np.stack([x, np.cross(z, x), z], axis=1)
 
 
+def _texture_pattern(rng: np.random.Generator, n: int = 128, blur_texels: float = 4.0) -> np.ndarray:
+    """Blurred uniform noise on an ``n × n`` periodic grid, rescaled to [0.35, 1]."""
+    from scipy.ndimage import gaussian_filter
+
+    g = gaussian_filter(rng.random((n, n)), blur_texels, mode="wrap")
+    g = (g - g.min()) / (g.max() - g.min())
+    return (0.35 + 0.65 * g).astype(np.float32)
+
+
+def _textured_bsdf(bsdf: dict, pattern: np.ndarray, tile_m: float) -> dict:
+    """``bsdf`` with every diffuse ``reflectance`` ``ρ`` replaced by the texture ``ρ · pattern``."""
+    out = {}
+    for key, val in bsdf.items():
+        if isinstance(val, dict):
+            val = _textured_bsdf(val, pattern, tile_m)
+            if val.get("type") == "diffuse":
+                rho = float(val["reflectance"])
+                val = dict(val, reflectance={"type": "bitmap", "bitmap": mi.Bitmap(rho * pattern[..., None]), "raw": True, "wrap_mode": "repeat"})
+        out[key] = val
+    return out
+
+
+def _textured_mesh(part, pattern: np.ndarray, tile_m: float):
+    """``part`` as a Mitsuba mesh with unshared vertices and planar-projected texture coordinates."""
+    V = part.vertices_T[part.faces].reshape(-1, 3)
+    F = np.arange(len(V), dtype=np.uint32).reshape(-1, 3)
+    n = np.cross(V[1::3] - V[0::3], V[2::3] - V[0::3])
+    axis = np.repeat(np.argmax(np.abs(n), axis=1), 3)
+    others = np.array([[1, 2], [0, 2], [0, 1]])[axis]
+    uv = np.take_along_axis(V, others, axis=1) / tile_m
+    props = mi.Properties()
+    props["bsdf"] = mi.load_dict(_textured_bsdf(lscene.bsdf_dict(part.material), pattern, tile_m))
+    N = None if part.normals_T is None else part.normals_T[part.faces].reshape(-1, 3)
+    mesh = mi.Mesh(part.name, len(V), len(F), props=props, has_vertex_normals=N is not None, has_vertex_texcoords=True)
+    mp = mi.traverse(mesh)
+    if N is not None:
+        mp["vertex_normals"] = type(mp["vertex_normals"])(N.astype(np.float32).ravel())
+    mp["vertex_positions"] = type(mp["vertex_positions"])(V.astype(np.float32).ravel())
+    mp["faces"] = type(mp["faces"])(F.ravel())
+    mp["vertex_texcoords"] = type(mp["vertex_texcoords"])(uv.astype(np.float32).ravel())
+    mp.update()
+    return mesh
+
+
 class StereoRenderer:
     """Renders stereo pairs of one target; the scene is loaded once.
 
@@ -149,10 +204,21 @@ class StereoRenderer:
     camera : the stereo camera (Table 1 by default, rendered at 512 px).
     lamp_intensity_w_sr : radiant intensity of a chaser-mounted point lamp
         between the cameras, W/sr (0: the Sun is the only light).
+    texture : modulate the diffuse albedo with a surface pattern (module docstring).
+    texture_seed : seed of that pattern (a property of the target, fixed per scene).
     variant : Mitsuba variant, see :func:`lightcurves.scene.select_variant`.
     """
 
-    def __init__(self, target: Target, camera: StereoCamera | None = None, *, lamp_intensity_w_sr: float = 0.0, variant: str | None = None):
+    def __init__(
+        self,
+        target: Target,
+        camera: StereoCamera | None = None,
+        *,
+        lamp_intensity_w_sr: float = 0.0,
+        texture: bool = True,
+        texture_seed: int = 0,
+        variant: str | None = None,
+    ):
         if lamp_intensity_w_sr < 0:
             raise ValueError(f"lamp_intensity_w_sr must be >= 0, got {lamp_intensity_w_sr}")
         self.camera = camera or StereoCamera()
@@ -161,13 +227,14 @@ class StereoRenderer:
         cam = self.camera
         sensors = {}
         for key, offset in (("camera_left", 0.0), ("camera_right", cam.baseline_m)):
+            # distinct initial transforms: Mitsuba merges identical plugin dicts into one object
             sensors[key] = {
                 "type": "perspective",
+                "to_world": mi.ScalarTransform4f(self._to_world(np.eye(3), np.array([0.0, offset, 0.0]))),
                 "fov": cam.fov_deg,
                 "fov_axis": "x",
                 "near_clip": _NEAR_CLIP_M,
                 "far_clip": 1e5,
-                "to_world": mi.ScalarTransform4f(self._to_world(offset)),
                 "film": {
                     "type": "hdrfilm",
                     "width": int(cam.resolution_px),
@@ -180,8 +247,13 @@ class StereoRenderer:
         d = lscene.scene_dict(
             target, np.array([0.0, 0.0, 1.0]), sensors=sensors, integrator={"type": "aov", "aovs": "dd.y:depth", "integrator": {"type": "direct"}}
         )
-        if lamp_intensity_w_sr > 0:
-            d["lamp"] = {"type": "point", "position": [0.0, 0.5 * cam.baseline_m, 0.0], "intensity": float(lamp_intensity_w_sr)}
+        if texture:
+            pattern = _texture_pattern(np.random.default_rng(texture_seed))
+            for part in target.parts:
+                d[lscene.part_key(part.name)] = _textured_mesh(part, pattern, tile_m=2.0)
+        self.lamp = lamp_intensity_w_sr > 0
+        if self.lamp:
+            d["lamp"] = {"type": "point", "position": [0.0, 0.0, 0.0], "intensity": float(lamp_intensity_w_sr)}
         self.scene = mi.load_dict(d)
         self.poser = lscene.ScenePoser(self.scene, target)
         self._sensors = {s.id(): s for s in self.scene.sensors()}
@@ -191,10 +263,11 @@ class StereoRenderer:
         self._cos = 1.0 / np.sqrt(1.0 + c[:, None] ** 2 + c[None, :] ** 2)
 
     @staticmethod
-    def _to_world(offset_y_m: float) -> np.ndarray:
+    def _to_world(C_TC: np.ndarray, origin_T: np.ndarray) -> np.ndarray:
+        """Camera-to-world (W = T) matrix of a camera at ``origin_T`` with axes C."""
         M = np.eye(4)
-        M[:3, :3] = _C_FROM_MITSUBA
-        M[:3, 3] = [0.0, offset_y_m, 0.0]
+        M[:3, :3] = C_TC @ _C_FROM_MITSUBA
+        M[:3, 3] = origin_T
         return M
 
     def render(self, C_CT, r_TC_C, sun_C, *, spp: int = 16, seed: int = 0) -> StereoFrame:
@@ -211,8 +284,15 @@ class StereoRenderer:
             raise ValueError(f"r_TC_C must be a finite 3-vector in m in front of the camera (z < 0), got {r}")
         if int(spp) < 1:
             raise ValueError(f"spp must be >= 1, got {spp}")
-        self.poser.set_target_pose(C_CT, r)
-        self.poser.set_sun(sun_C)
+        C_TC = C_CT.T
+        o_left_T = -C_TC @ r  # camera origin relative to the target centre, in T
+        b_T = self.camera.baseline_m * C_TC[:, 1]  # right camera at +b y_C
+        self.poser.set_sensor("camera_left", self._to_world(C_TC, o_left_T))
+        self.poser.set_sensor("camera_right", self._to_world(C_TC, o_left_T + b_T))
+        self.poser.set_sun(C_TC @ np.asarray(sun_C, dtype=float))
+        if self.lamp:
+            self.poser.params["lamp.position"] = mi.Point3f(*(o_left_T + 0.5 * b_T))
+            self.poser.params.update()
         out = {}
         for side in ("left", "right"):
             img = np.array(mi.render(self.scene, sensor=self._sensors[f"camera_{side}"], spp=int(spp), seed=int(seed)), dtype=float)
