@@ -95,8 +95,8 @@ def _check_cloud(name: str, a) -> np.ndarray:
     return a
 
 
-def _similarity(nu, xhat_nu, Y):
-    """Closed-form similarity update of BCPD (Hirose 2021, Alg. 1) with ``v = 0``."""
+def _similarity(nu, xhat_nu, Y, with_scale=True):
+    """Closed-form similarity update of BCPD (Hirose 2021, Alg. 1) with ``v = 0`` (``s = 1`` if not ``with_scale``)."""
     Nhat = nu.sum()
     xbar = xhat_nu.sum(axis=0) / Nhat
     ybar = nu @ Y / Nhat
@@ -107,7 +107,7 @@ def _similarity(nu, xhat_nu, Y):
     U, _, Vt = np.linalg.svd(S_xy)
     d = np.sign(np.linalg.det(U @ Vt)) or 1.0
     R = U @ np.diag([1.0, 1.0, d]) @ Vt
-    s = float(np.sum(R * S_xy) / S_yy)
+    s = float(np.sum(R * S_xy) / S_yy) if with_scale else 1.0
     t = xbar - s * R @ ybar
     return s, R, t
 
@@ -167,7 +167,7 @@ class _KnnEStep:
         return nu, xhat_nu, float(Pn @ np.sum(X * X, axis=1))
 
 
-def _iterate(X, Y, s, R, t, sigma2, w, estep, tol, max_iterations, stop_sigma2=0.0):
+def _iterate(X, Y, s, R, t, sigma2, w, estep, tol, max_iterations, stop_sigma2=0.0, with_scale=True):
     """Run VB iterations with a given E-step until ``σ²`` settles; return the state."""
     V = float(np.prod(np.ptp(X, axis=0) + 1e-12))
     c_out = w / V
@@ -179,7 +179,7 @@ def _iterate(X, Y, s, R, t, sigma2, w, estep, tol, max_iterations, stop_sigma2=0
         Nhat = nu.sum()
         if Nhat < 1e-12 * X.shape[0]:
             break  # every measured point is explained as an outlier: nothing to fit
-        s, R, t = _similarity(nu, xhat_nu, Y)
+        s, R, t = _similarity(nu, xhat_nu, Y, with_scale)
         Yt = s * Y @ R.T + t
         new = max(_sigma2(Px2, nu, xhat_nu, Yt, Nhat), 1e-12)
         change = abs(sigma2 - new) / sigma2
@@ -265,9 +265,10 @@ def bcpd_rigid(
             def estep_c(Xa, s_, R_, t_, sig2, c_out, wM):
                 return _estep_dense(Xa, s_ * Ys @ R_.T + t_, sig2, c_out, wM)
 
-            # the coarse phase only provides a start for the truncated one: a looser tolerance
+            # rigid (s = 1) while σ is large: with a partial measured cloud the scale
+            # would first shrink the model onto the visible side and recover only slowly
             s, R, t, sigma2, it, _ = _iterate(
-                Xs, Ys, s, R, t, sigma2, w, estep_c, 10.0 * tol, max_iterations, stop_sigma2=sigma2_switch
+                Xs, Ys, s, R, t, sigma2, w, estep_c, tol, max_iterations, stop_sigma2=sigma2_switch, with_scale=False
             )
 
         s, R, t, sigma2, it2, conv = _iterate(

@@ -45,6 +45,7 @@ __all__ = [
     "principal_axes",
     "build_coarse_model",
     "axis_errors_deg",
+    "mesh_surface_points",
 ]
 
 
@@ -254,3 +255,24 @@ def axis_errors_deg(C_PM, C_TM) -> np.ndarray:
         if best is None or ang.max() < best.max():
             best = ang
     return best
+
+
+def mesh_surface_points(target, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` points uniform over a target's mesh surface and their outward face normals, in T.
+
+    The ideal coarse model (what a perfect preliminary phase would give) and
+    a source of synthetic measurements; ``target`` is a
+    :class:`lightcurves.targets.Target`.
+    """
+    if n < 1:
+        raise ValueError(f"n must be >= 1, got {n}")
+    tris = np.concatenate([p.vertices_T[p.faces] for p in target.parts])
+    cross = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    idx = rng.choice(len(tris), size=n, p=area / area.sum())
+    a, b = rng.random((2, n))
+    flip = a + b > 1.0
+    a[flip], b[flip] = 1.0 - a[flip], 1.0 - b[flip]
+    T = tris[idx]
+    points = T[:, 0] + a[:, None] * (T[:, 1] - T[:, 0]) + b[:, None] * (T[:, 2] - T[:, 0])
+    return points, cross[idx] / (2.0 * area[idx, None])
