@@ -27,6 +27,7 @@ def _root() -> None:
 # Each area adds one line here: `from studies import X; X.register(app)`.
 from studies import simulate_cmd; simulate_cmd.register(app)  # noqa: E402,E702
 from studies import combina_cmd; combina_cmd.register(app)  # noqa: E402,E702
+from studies import perception_cmd; perception_cmd.register(app)  # noqa: E402, E702
 
 #: Exceptions that mean "the user's input is wrong": one line, exit 2.
 USER_ERRORS = (ValueError, KeyError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError)
