@@ -25,14 +25,16 @@ MAHALANOBIS_CONFIDENCE = 0.99
 """Probability of accepting a correct measurement (eq. 19 of ``000_…``)."""
 
 REASON_SCALE = "scale outside bounds"
+REASON_NO_REGISTRATION = "no registration (degenerate cloud or target not seen)"
 
 
 def scale_gate(scale: float, *, t: float, source: str, bounds: tuple[float, float] = SCALE_BOUNDS) -> GateDecision:
-    """Accept a BCPD registration whose scale ``s`` lies in ``bounds`` (inclusive)."""
+    """Accept a BCPD registration whose scale ``s`` lies in ``bounds`` (inclusive); NaN = no registration."""
     s = float(scale)
     lo, hi = bounds
     ok = bool(np.isfinite(s) and lo <= s <= hi)
-    return GateDecision(t=float(t), source=source, e2=float("nan"), lower=lo, upper=hi, accepted=ok, reason="" if ok else REASON_SCALE)
+    reason = "" if ok else (REASON_SCALE if np.isfinite(s) else REASON_NO_REGISTRATION)
+    return GateDecision(t=float(t), source=source, e2=float("nan"), lower=lo, upper=hi, accepted=ok, reason=reason)
 
 
 def mahalanobis_gate(inn: Innovation, *, t: float, source: str, confidence: float = MAHALANOBIS_CONFIDENCE) -> GateDecision:

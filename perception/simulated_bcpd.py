@@ -40,7 +40,8 @@ class RegisteredPose:
     r_L: np.ndarray  #: (3,) m, target centre of mass relative to the chaser, LVLH (eq. 8)
     q_IT: np.ndarray  #: (4,) measured target attitude, T to I (eq. 5)
     scale: float  #: BCPD similarity scale ``s``
-    kind: str  #: "nominal", "deformed" or "misaligned" (simulation truth, for diagnostics only)
+    kind: str  #: "nominal", "deformed", "misaligned" (simulated, for diagnostics only), "rendered", "no registration: …"
+    cloud_L: np.ndarray | None = None  #: (M, 3) m, the measured cloud relative to the chaser in LVLH (rendered chain only)
 
     @property
     def C_TI(self) -> np.ndarray:

@@ -19,8 +19,9 @@ Targets: ``asymmetric`` has ``k = [0.03, −0.1]`` (eq. 47, a box-wing);
 axisymmetric inertia of ``002_…`` §6 rounded), symmetry axis = body ``y``.
 
 Measurements come from a :class:`MeasurementSource` — the simulated
-BCPD-like source of :mod:`perception.simulated_bcpd`, or (when perception's
-rendered chain is available) the rendered stereo + BCPD chain.
+BCPD-like source of :mod:`perception.simulated_bcpd`, or the rendered stereo +
+BCPD chain of :mod:`studies.combina_rendered` (Mitsuba images of the box-wing
+or Atlas-Centaur meshes, whose own inertia ratios then replace the ones above).
 
 Spin priors (``--prior``, ``002_…`` §6): ``init`` draws ``ω_0`` around the truth
 with a relative error ``prior_error`` (isotropic, ``|ω_0 − ω| ≈ prior_error |ω|``)
@@ -51,7 +52,8 @@ from estimators.dynamics import lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
 from estimators.symmetry import SymmetryCheck, SymmetryDetector
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
-from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, Scenario, get_scenario
+from lightcurves.targets import get_target
+from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
 from studies.truth import simulate_truth
 
 # ---------------------------------------------------------------- scenario (000_… §VI)
@@ -62,6 +64,8 @@ N_RAD_S = SCENARIO.mean_motion_rad_s
 UNITS = ScaledUnits(TU_s=TU_COMBINA_S, LU_m=LU_COMBINA_M)
 TU, LU = UNITS.TU_s, UNITS.LU_m
 K_TARGETS = {"asymmetric": np.array(SCENARIO.k), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
+#: The meshes rendered for ``--measurements rendered`` (their own inertia ratios then apply).
+MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
 SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
@@ -72,10 +76,6 @@ AXIS_FRAMES = ("known", "estimated")
 #: Convergence tolerances on the error norm, in scaled units (LU, LU/TU, MRP, rad/TU, 1, rad).
 TOLERANCES = {"r": 0.1, "v": 0.1, "sigma": 0.05, "w": 0.1, "k": 0.1, "phi": np.deg2rad(5.0), "delta": np.deg2rad(5.0), "gamma_over_a": 0.05}
 COMPONENT_SI = {"r": LU, "v": LU / TU, "sigma": 1.0, "w": 1.0 / TU, "k": 1.0, "phi": 1.0, "delta": 1.0, "gamma_over_a": 1.0 / TU}
-
-
-class MeasurementUnavailable(ValueError):
-    """The requested measurement source cannot run here."""
 
 
 class MeasurementSource(Protocol):
@@ -123,8 +123,9 @@ class CombinaConfig:
 
     @property
     def effective_duration_s(self) -> float:
-        """``--quick`` caps the run at 0.25 TU."""
-        return (min(self.duration_tu, 0.25) if self.quick else self.duration_tu) * TU
+        """``--quick`` caps the run at 0.25 TU (simulated) or 0.05 TU (rendered, ~16 frames)."""
+        cap = 0.05 if self.measurements == "rendered" else 0.25
+        return (min(self.duration_tu, cap) if self.quick else self.duration_tu) * TU
 
 
 # ---------------------------------------------------------------- truth
@@ -141,22 +142,29 @@ class Truth:
     w_T: np.ndarray  #: (N, 3) rad/s
     k: np.ndarray  #: (2,)
     J_T: np.ndarray  #: (3,) principal inertia, B = 1
+    C_LI: np.ndarray  #: (N, 3, 3) the chaser's LVLH axes (rows) in I
 
 
-def scenario_for(target: str) -> Scenario:
-    """The COMBINA scenario with the target's inertia ratios."""
-    return replace(SCENARIO, name=f"COMBINA-{target}", k=tuple(float(v) for v in K_TARGETS[target]))
+def target_k(target: str, measurements: str = "simulated") -> np.ndarray:
+    """Inertia ratios of the target: the scenario's for simulated measurements, the mesh's for rendered ones."""
+    if measurements == "rendered":
+        return np.array(get_target(MESH_TARGETS[target]).k, dtype=float)
+    return K_TARGETS[target].copy()
 
 
-def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float) -> Truth:
-    """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH."""
-    tr = simulate_truth(scenario_for(target), duration_s, dt_s)
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None) -> Truth:
+    """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH.
+
+    ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`).
+    """
+    k = K_TARGETS[target].copy() if k is None else np.asarray(k, dtype=float)
+    tr = simulate_truth(replace(SCENARIO, name=f"COMBINA-{target}", k=(float(k[0]), float(k[1]))), duration_s, dt_s)
     s, g = tr.servicer, tr.target
     C_LI = lvlh_dcm(s[:, 0:3], s[:, 3:6])
     w_L = np.array([0.0, 0.0, N_RAD_S])
     r_L = np.einsum("nij,nj->ni", C_LI, g[:, 0:3] - s[:, 0:3])
     v_L = np.einsum("nij,nj->ni", C_LI, g[:, 3:6] - s[:, 3:6]) - np.cross(w_L, r_L)  # transport theorem
-    return Truth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=K_TARGETS[target].copy(), J_T=tr.J_T_diag)
+    return Truth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=k, J_T=tr.J_T_diag, C_LI=C_LI)
 
 
 def angular_momentum_I(q_IT, w_T, J_T) -> np.ndarray:
@@ -201,16 +209,19 @@ class CombinaRun:
     iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
     proxy_updates: int = 0
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
+    model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
 
 
 def _nan(n):
     return np.full(n, np.nan)
 
 
-def make_source(cfg: CombinaConfig, rng: np.random.Generator) -> MeasurementSource:
-    """The measurement source named by ``cfg.measurements``."""
+def make_source(cfg: CombinaConfig, rng: np.random.Generator, truth: Truth) -> MeasurementSource:
+    """The measurement source named by ``cfg.measurements`` (rendered: smaller images with ``--quick``)."""
     if cfg.measurements == "rendered":
-        raise MeasurementUnavailable("measurements 'rendered' is not available yet: the rendered stereo + BCPD chain (branch perception) has not been merged; use --measurements simulated")
+        from studies.combina_rendered import RenderedBCPD  # Mitsuba loads only when asked for
+
+        return RenderedBCPD(get_target(MESH_TARGETS[cfg.target]), truth.t, truth.C_LI, rng, resolution_px=256 if cfg.quick else 512, spp=4 if cfg.quick else 8)
     axis = SYMMETRY_AXIS_T if cfg.target == "symmetric" else None
     return SimulatedBCPD(rng, symmetry_axis_T=axis)
 
@@ -224,11 +235,11 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     n_meas = int(np.floor(cfg.effective_duration_s * cfg.rate_hz))
     t = dt * np.arange(n_meas + 1)
     if truth is None:
-        truth = simulate_lvlh_truth(cfg.target, t[-1], dt)
+        truth = simulate_lvlh_truth(cfg.target, t[-1], dt, k=target_k(cfg.target, cfg.measurements))
     if truth.t.shape != t.shape or not np.allclose(truth.t, t):
         raise ValueError("truth epochs do not match the configuration's measurement epochs")
     if source is None:
-        source = make_source(cfg, rng_meas)
+        source = make_source(cfg, rng_meas, truth)
 
     # ---- initial estimates drawn from P_0 (eq. 48)
     Ds = UNITS.state_scale()
@@ -326,7 +337,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate)
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None))
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
