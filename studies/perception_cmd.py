@@ -124,7 +124,7 @@ def frames(
     from perception.measure import measure_pose
     from perception.model import mesh_surface_points
     from perception.render import StereoCamera, StereoRenderer
-    from perception.stereo import _luminance, stereo_cloud, tone_map
+    from perception.stereo import luminance, stereo_cloud, tone_map
 
     rng = np.random.default_rng(seed)
     tgt = get_target(target)
@@ -185,9 +185,9 @@ def frames(
         "registration": reg,
     }
 
-    white = float(_luminance(frame.left).max()) or 1.0
-    left_u8 = tone_map(_luminance(frame.left), white)
-    right_u8 = tone_map(_luminance(frame.right), white)
+    white = float(luminance(frame.left).max()) or 1.0
+    left_u8 = tone_map(luminance(frame.left), white)
+    right_u8 = tone_map(luminance(frame.right), white)
     import cv2
     import pandas as pd
 
