@@ -26,7 +26,8 @@ Stable API (shared with ``perception``; DESIGN.md)
   ``set_sun(sun_W)``, ``set_sensor(key, to_world_4x4)``; each ends with
   ``params.update()``.
 * :func:`look_at_matrix` ``(origin, target, up) -> (4, 4)`` — Mitsuba's
-  camera convention (local +z forward, +y up, +x = up × forward, i.e. left).
+  camera convention (local +z forward, +y up, +x = up × forward, i.e. left);
+  :func:`frame_from_z` ``(z)`` — a rotation (4×4) whose local +z is ``z``.
 
 World frame W is the caller's: the light-curve renderer uses W = T (the target
 stays put; the Sun and the sensor move), the stereo renderer poses the target.
@@ -54,6 +55,7 @@ __all__ = [
     "target_meshes",
     "scene_dict",
     "look_at_matrix",
+    "frame_from_z",
     "ScenePoser",
 ]
 
@@ -202,7 +204,7 @@ def look_at_matrix(origin, target, up) -> np.ndarray:
     return M
 
 
-def _frame_z(z) -> np.ndarray:
+def frame_from_z(z) -> np.ndarray:
     """A rotation (4×4) whose local +z is the unit vector ``z``."""
     z = np.asarray(z, dtype=float)
     helper = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
@@ -220,7 +222,7 @@ def _unit(v, name: str) -> np.ndarray:
 def sun_dict(sun_W, irradiance_w_m2: float = SUN_IRRADIANCE_W_M2) -> dict:
     """Directional emitter for the Sun; ``sun_W`` points from the target to the Sun."""
     s = _unit(sun_W, "sun_W")
-    return {"type": "directional", "to_world": mi.ScalarTransform4f(_frame_z(-s)), "irradiance": float(irradiance_w_m2)}
+    return {"type": "directional", "to_world": mi.ScalarTransform4f(frame_from_z(-s)), "irradiance": float(irradiance_w_m2)}
 
 
 def part_key(part_name: str) -> str:
@@ -294,7 +296,7 @@ class ScenePoser:
         self.params.update()
 
     def set_sun(self, sun_W) -> None:
-        self.params["sun.to_world"] = mi.Transform4f(_frame_z(-_unit(sun_W, "sun_W")))
+        self.params["sun.to_world"] = mi.Transform4f(frame_from_z(-_unit(sun_W, "sun_W")))
         self.params.update()
 
     def set_sensor(self, key: str, to_world) -> None:

@@ -178,6 +178,7 @@ def mass_properties(vertices, faces, density_kg_m3: float = 1.0) -> MassProperti
     cov = outer / 120.0 - vol * np.outer(com, com)  # about the centre of mass
     I_B = density_kg_m3 * (np.trace(cov) * np.eye(3) - cov)
     C_BT, moments = _principal_axes(I_B)
+    k1, k2 = k_from_inertia(moments)
     return MassProperties(
         volume_m3=float(vol),
         density_kg_m3=float(density_kg_m3),
@@ -185,8 +186,8 @@ def mass_properties(vertices, faces, density_kg_m3: float = 1.0) -> MassProperti
         com_B=com,
         C_BT=C_BT,
         inertia_T=moments,
-        k1=k_from_inertia(moments)[0],
-        k2=k_from_inertia(moments)[1],
+        k1=k1,
+        k2=k2,
     )
 
 

@@ -21,6 +21,7 @@ app = typer.Typer(
 )
 
 # Each area adds one line here: `from studies import X; X.register(app)`.
+from studies import lightcurve_cmd; lightcurve_cmd.register(app)  # noqa: E402, E702
 from studies import perception_cmd; perception_cmd.register(app)  # noqa: E402, E702
 
 #: Exceptions that mean "the user's input is wrong": one line, exit 2.
