@@ -54,6 +54,10 @@ __all__ = ["BCPDResult", "bcpd_rigid"]
 
 METHODS = ("dense", "kdtree")
 
+#: The fast method re-queries the k-d tree once some measured point has moved
+#: by more than this fraction of σ since its neighbours were found.
+REQUERY_SIGMA_FRACTION = 0.5
+
 
 @dataclass(frozen=True)
 class BCPDResult:
@@ -178,8 +182,8 @@ class _ListEStep:
     ``k`` nearest model points: the measured points are mapped into the
     untransformed model frame, ``(Rᵀ (x − t)) / s``, and looked up in a tree
     built once on the model. The neighbour lists are reused until some
-    measured point has moved by more than ``σ/4`` (model units) since they
-    were found: the kernel weights are always recomputed from exact
+    measured point has moved by more than ``REQUERY_SIGMA_FRACTION · σ``
+    (model units) since they were found: the kernel weights are always recomputed from exact
     distances, only the choice of the ``k`` neighbours is held.
     """
 
@@ -193,7 +197,7 @@ class _ListEStep:
         if self.tree is None:
             if self.idx is None:
                 self.idx = np.broadcast_to(np.arange(len(self.Y)), (len(X), len(self.Y))).copy()
-        elif self.idx is None or np.max(np.abs(Xm - self.X_at_query)) > 0.25 * np.sqrt(sigma2) / s:
+        elif self.idx is None or np.max(np.abs(Xm - self.X_at_query)) > REQUERY_SIGMA_FRACTION * np.sqrt(sigma2) / s:
             _, self.idx = self.tree.query(Xm, k=self.k)
             self.X_at_query = Xm
         nu, xnu, px2 = _estep_lists(X, Xm, self.Y, self.idx, s, sigma2, c_out, wM)
@@ -235,8 +239,9 @@ def bcpd_rigid(
     max_iterations: int = 200,
     method: str = "kdtree",
     k: int = 12,
-    n_coarse: int = 200,
+    n_coarse: int = 120,
     rng: np.random.Generator | None = None,
+    estimate_scale: bool = True,
 ) -> BCPDResult:
     """Register a measured cloud against a model with rigid BCPD (similarity transform).
 
@@ -254,6 +259,10 @@ def bcpd_rigid(
     n_coarse : subset size per cloud in the downsampled phase of ``"kdtree"``.
     rng : draws the subsets of ``"kdtree"``; a fixed default seed keeps the
         registration deterministic when it is not given.
+    estimate_scale : estimate ``s`` (BCPD's similarity, what the scale gate of
+        ``000_…`` needs) or hold ``s = 1`` (a rigid transform; on a cloud that
+        covers one side of the target the scale estimate is biased, see
+        ``benchmarks/RESULTS.md``).
 
     The initial transform is the identity: the caller brings the clouds close
     (eq. 3 of ``000_…`` does that with the filter's estimate).
@@ -282,7 +291,7 @@ def bcpd_rigid(
         def estep(Xa, s_, R_, t_, sig2, c_out, wM):
             return _estep_dense(Xa, s_ * Y @ R_.T + t_, sig2, c_out, wM)
 
-        s, R, t, sigma2, it, conv = _iterate(X, Y, s, R, t, sigma2, w, estep, tol, max_iterations)
+        s, R, t, sigma2, it, conv = _iterate(X, Y, s, R, t, sigma2, w, estep, tol, max_iterations, with_scale=estimate_scale)
     else:
         rng = np.random.default_rng(0) if rng is None else rng
         kk = min(k, M)
@@ -302,7 +311,7 @@ def bcpd_rigid(
             )
 
         s, R, t, sigma2, it2, conv = _iterate(
-            X, Y, s, R, t, sigma2, w, _ListEStep(Y, tree, kk), tol, max(max_iterations - it, 1)
+            X, Y, s, R, t, sigma2, w, _ListEStep(Y, tree, kk), tol, max(max_iterations - it, 1), with_scale=estimate_scale
         )
         it += it2
     # BCPD found measured ≈ s R model + t; eq. 4 wants model ≈ s' R' measured + t'

@@ -115,6 +115,7 @@ def frames(
     spp: int = typer.Option(16, help="samples per pixel"),
     estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg"),
     estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m"),
+    rigid: bool = typer.Option(False, "--rigid", help="hold BCPD's scale at 1 (no scale gate)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
 ) -> None:
     """Render a stereo pair, build its point cloud, register it; write images, cloud and frames.rrd."""
@@ -155,7 +156,7 @@ def frames(
     r_hat = r_TC_C + estimate_error_m * offset / np.linalg.norm(offset)
     eye = np.eye(3)
     t3 = time.perf_counter()
-    meas = measure_pose(cloud.points_C, model_T, C_TI_hat=C_TC_hat, C_IC=eye, C_IL=eye, r_L_hat=r_hat)
+    meas = measure_pose(cloud.points_C, model_T, C_TI_hat=C_TC_hat, C_IC=eye, C_IL=eye, r_L_hat=r_hat, estimate_scale=not rigid)
     t4 = time.perf_counter()
     model_C = model_T @ C_CT.T + r_TC_C
     registered_C = None
