@@ -27,14 +27,19 @@ Two ways of evaluating the E-step (``method=``):
     the fast approximation. While ``σ`` is large compared with the model's
     point spacing the posterior is broad and smooth, so the iterations run
     densely on random subsets of at most ``n_coarse`` points of each cloud
-    (downsampling). Once the ``k``-th nearest model neighbour of a typical
-    model point lies beyond ``3σ`` (the kernel there is below ``e^{-4.5}``),
-    each measured point only sees its ``k`` nearest model points, found with a
+    (downsampling), holding ``s = 1``: on a cloud that covers one side of the
+    target the scale would first shrink the model onto that side and recover
+    only slowly. Once the ``k``-th nearest model neighbour of a typical model
+    point lies beyond ``3σ`` (the kernel there is below ``e^{-4.5}``), each
+    measured point only sees its ``k`` nearest model points, found with a
     :class:`scipy.spatial.cKDTree` built once on the untransformed model: the
-    measured points are mapped into the model frame,
-    ``(Rᵀ (x − t)) / s``, instead of moving the model. Its accuracy against
-    the dense reference is measured in ``tests/perception/test_bcpd.py`` and
-    ``benchmarks/bench_perception.py``.
+    measured points are mapped into the model frame, ``(Rᵀ (x − t)) / s``,
+    instead of moving the model, and the neighbour lists are refreshed only
+    when the points have moved by ``σ/2``. Both phases share one numba E-step
+    over neighbour lists. Its accuracy and speed against the dense reference
+    are measured in ``tests/perception/test_bcpd.py`` and
+    ``benchmarks/bench_perception.py`` (~100× faster, rotations within ~0.1–0.3°
+    of the reference's).
 
 The result follows eq. 4 of ``000_…``: ``model ≈ s R measured + t`` — the
 transformation that carries the measured cloud onto the model. BCPD itself

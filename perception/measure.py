@@ -124,8 +124,9 @@ def measure_pose(
         distance. Eq. 3 already aligns the cloud with the filter's estimate, so
         a small start (0.1, against Hirose's 1) keeps the first, wide-kernel
         iterations from pulling the model's centroid onto the visible side's
-        centroid — on a one-sided view of a long rocket body that drift ended
-        in a local minimum 18° off (``benchmarks/RESULTS.md``).
+        centroid: on eight rendered one-sided views of the rocket body that
+        drift ended once in a local minimum 19° off with γ = 1, never with
+        0.1 (max 0.5°; ``benchmarks/RESULTS.md``).
     **bcpd_kwargs : passed to :func:`perception.bcpd.bcpd_rigid`.
     """
     C_TI_hat = _rotation("C_TI_hat", C_TI_hat)
