@@ -272,7 +272,8 @@ def plot_errors(truth: Truth, run, path: Path, title: str) -> None:
             ax.plot(t, err[:, i], color=c, lw=0.8, label=f"{name}")
             ax.plot(t, sig3[:, i], color=c, lw=0.6, ls="--")
             ax.plot(t, -sig3[:, i], color=c, lw=0.6, ls="--")
-        lim = np.nanpercentile(np.abs(err[len(t) // 10:, sl]), 99) * 3 + 1e-12
+        late = slice(len(t) // 10, None)  # past the acquisition transient
+        lim = 1.3 * max(np.nanpercentile(np.abs(err[late, sl]), 99), np.nanmedian(sig3[late, sl])) + 1e-12
         ax.set(ylabel=f"δ{g} ({_UNITS[g]})", ylim=(-lim, lim))
         ax.legend(fontsize=7, ncol=3, loc="upper right")
     axes[0].set_title(f"{title}: error (solid) and ±3σ (dashed)")
