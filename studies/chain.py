@@ -48,7 +48,8 @@ ARMS = ("none", "tuning", "init", "proxy")
 ARM_LABELS = {"none": "no prior", "tuning": "prior: tuning", "init": "prior: tuning + init", "proxy": "prior: tuning + init + proxy"}
 #: Tuning without a prior: the general filter of the tuning study (best on SC4).
 GENERAL_TUNING = "general"
-_UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
+#: Units of each metric group (attitude error as an angle).
+UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
 
 
 @dataclass(frozen=True)
@@ -274,7 +275,7 @@ def plot_errors(truth: Truth, run, path: Path, title: str) -> None:
             ax.plot(t, -sig3[:, i], color=c, lw=0.6, ls="--")
         late = slice(len(t) // 10, None)  # past the acquisition transient
         lim = 1.3 * max(np.nanpercentile(np.abs(err[late, sl]), 99), np.nanmedian(sig3[late, sl])) + 1e-12
-        ax.set(ylabel=f"δ{g} ({_UNITS[g]})", ylim=(-lim, lim))
+        ax.set(ylabel=f"δ{g} ({UNITS[g]})", ylim=(-lim, lim))
         ax.legend(fontsize=7, ncol=3, loc="upper right")
     axes[0].set_title(f"{title}: error (solid) and ±3σ (dashed)")
     axes[-1].set_xlabel("time (s)")

@@ -84,10 +84,6 @@ def check(params: dict) -> None:
     if params["observation_duration_s"] / params["cadence_s"] < 20:
         raise ConfigError(f"field 'cadence_s' must give at least 20 light-curve samples over observation_duration_s = "
                           f"{params['observation_duration_s']} s, got {params['cadence_s']}")
-    if not params["filters"]:
-        raise ConfigError("field 'filters' must name at least one filter (ekf, ukf)")
-    if not params["experiments"]:
-        raise ConfigError("field 'experiments' must name at least one of init, proxy")
     for e in params["experiments"]:
         if params["dt_s"] > params[f"{e}_duration_s"]:
             raise ConfigError(f"field 'dt_s' must not exceed {e}_duration_s = {params[f'{e}_duration_s']} s, got {params['dt_s']}")

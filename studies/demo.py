@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 import typer
 
-from studies.chain import ARM_LABELS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_spectrum, record_lightcurve, record_run, render_prior
+from studies.chain import ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_spectrum, record_lightcurve, record_run, render_prior
 from lightcurves.io import to_timeseries
 from studies.io import atomic_path, write_json, write_table
 from studies.metrics import GROUPS
@@ -42,7 +42,6 @@ from studies.tables import Table, write_tables
 from studies.truth import simulate_truth
 
 DEFAULT_OUT = Path("runs/demo")
-_UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
 
 
 @dataclass(frozen=True)
@@ -81,7 +80,7 @@ def comparison_table(rows: list[dict]) -> pd.DataFrame:
     cols = {"filter": "filter", "prior": "prior", "tuning": "tuning"}
     for g in GROUPS:
         cols[f"{g}_conv_s"] = f"t_conv {g} (s)"
-        cols[f"{g}_rmse"] = f"RMSE {g} ({_UNITS[g]})"
+        cols[f"{g}_rmse"] = f"RMSE {g} ({UNITS[g]})"
     return pd.DataFrame(rows)[list(cols)].rename(columns=cols)
 
 

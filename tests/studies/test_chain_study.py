@@ -76,3 +76,20 @@ def test_prior_as_initial_condition_starts_the_rate_converged(chain_out):
     assert e0(without, "ekf_none") > np.radians(2.0) > e0(with_prior, "ekf_init")
     rec = json.loads((chain_out / "runs" / rid / "metrics.json").read_text())
     assert rec["params"]["experiment"] == "init"
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("cadence_s = 1.0", "cadence_s = 100.0"), "field 'cadence_s' must give at least 20 light-curve samples"),
+    (('target = "atlas-centaur"', 'target = "saturn-v"'), "field 'target' must be one of"),
+    (("proxy_duration_s = 300.0", "proxy_duration_s = 200.0"), "field 'proxy_duration_s' must exceed"),
+])
+def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, message):
+    text = (Path(__file__).resolve().parents[2] / "studies" / "configs" / "chain.toml").read_text()
+    assert edit[0] in text
+    cfg = tmp_path / "chain.toml"
+    cfg.write_text(text.replace(edit[0], edit[1]))
+    out = tmp_path / "out"
+    assert main(["study", "chain", "--config", str(cfg), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not out.exists()
