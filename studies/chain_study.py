@@ -21,7 +21,10 @@ Per run (one experiment, one seed) the row holds the light curve's rate
 error, the chosen tuning and whether it is the scenario's own, and for every
 filter and arm the convergence time and steady-state RMSE of each group
 (state and filter based, ``studies.metrics``; for ``proxy`` also the RMSE
-after the fault plus a settling time, Table 6). The summary gives mean, spread,
+after the fault plus a settling time, Table 6). A filter that breaks down
+numerically (``ValueError`` from the filter: covariance not positive definite,
+NaN) is a result, not a crash: ``<filter>_<arm>_failed`` holds its message and
+the summary counts it (as not converged). The summary gives mean, spread,
 t interval of the mean and bootstrap interval of the median over the seeds.
 
 Each run folder holds ``lightcurve.rrd`` (``/lightcurve``, ``/spectrum``),
@@ -132,8 +135,13 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     row["n_steps"] = len(truth.t)
     for f in p["filters"]:
         for arm in arms:
-            run, meas, _ = navigate(truth, f, arm, rendered.spin, measurement_seed, faults=faults,
-                                    gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"])
+            try:
+                run, meas, _ = navigate(truth, f, arm, rendered.spin, measurement_seed, faults=faults,
+                                        gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"])
+            except ValueError as e:  # the filter broke down numerically (P not positive definite, NaN): a result, counted
+                row[f"{f}_{arm}_failed"] = str(e)
+                continue
+            row[f"{f}_{arm}_failed"] = ""
             row |= flat_metrics(truth, run, f"{f}_{arm}", rmse_from_s=rmse_from)
             if p["record"]:
                 record_run(workdir / f"{f}_{arm}.rrd", truth, run, meas, spec.seed, f"{f}_{arm}")
@@ -150,12 +158,13 @@ def long_runs(runs: pd.DataFrame, filters, experiments) -> pd.DataFrame:
         sub = runs[runs["experiment"] == e]
         for f in filters:
             for arm in ("none", "tuning", e):
-                cols = {c: c[len(f"{f}_{arm}_"):] for c in sub.columns if c.startswith(f"{f}_{arm}_")}
-                if not cols:
+                failed = f"{f}_{arm}_failed"
+                if failed not in sub.columns:
                     continue
+                cols = {c: c[len(f"{f}_{arm}_"):] for c in sub.columns if c.startswith(f"{f}_{arm}_") and c != failed}
                 d = sub[["run_id", "seed", "experiment"] + list(cols)].rename(columns=cols)
-                d[list(cols.values())] = d[list(cols.values())].astype(float)  # None (did not converge) -> NaN
-                parts.append(d.assign(filter=f, arm=arm))
+                d[list(cols.values())] = d[list(cols.values())].astype(float)  # None (did not converge or failed) -> NaN
+                parts.append(d.assign(filter=f, arm=arm, failed=sub[failed].fillna("").astype(str).ne("")))
     return pd.concat(parts, ignore_index=True)
 
 
@@ -173,6 +182,8 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
                      median_of=[f"{g}_conv_s"], rng=rng)
         conv = long.groupby(["experiment", "filter", "arm"], sort=False)[f"{g}_conv_s"].apply(lambda s: float(np.isfinite(s).mean()))
         d["converged"] = [conv[(e, f, a)] for e, f, a in zip(d["experiment"], d["filter"], d["arm"])]
+        fail = long.groupby(["experiment", "filter", "arm"], sort=False)["failed"].sum()
+        d["failed"] = [int(fail[(e, f, a)]) for e, f, a in zip(d["experiment"], d["filter"], d["arm"])]
         d.columns = [c.removeprefix(f"{g}_") for c in d.columns]
         rows.append(d)
     order = {a: i for i, a in enumerate(("none", "tuning", "init", "proxy"))}
@@ -180,7 +191,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     summ = summ.sort_values(["experiment", "filter", "arm", "group"], key=lambda s: s.map(order) if s.name == "arm" else s.map(GROUPS.index) if s.name == "group" else s,
                             kind="stable").reset_index(drop=True)
     summ["arm"] = summ["arm"].map(ARM_LABELS)
-    cols = {"experiment": "experiment", "filter": "filter", "arm": "prior", "group": "group", "n_runs": "runs", "converged": "converged",
+    cols = {"experiment": "experiment", "filter": "filter", "arm": "prior", "group": "group", "n_runs": "runs", "failed": "failed", "converged": "converged",
             "conv_s_mean": "t_conv mean (s)", "conv_s_sd": "t_conv sd", "conv_s_ci_lo": f"mean {pct}% lo", "conv_s_ci_hi": f"mean {pct}% hi",
             "conv_s_median": "t_conv median (s)", "conv_s_med_lo": f"median {pct}% lo", "conv_s_med_hi": f"median {pct}% hi",
             "rmse_mean": "RMSE mean", "rmse_sd": "RMSE sd", "rmse_ci_lo": f"RMSE {pct}% lo", "rmse_ci_hi": f"RMSE {pct}% hi"}
@@ -190,7 +201,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
              "the prior ω = rate × the scenario's true initial spin axis (assumed: a light curve gives no axis), 1-σ from the fit. "
              "Arms: no prior (general tuning, ω̂_0 = 0); prior: tuning (tuning_for_prior); prior: tuning + init (§6.2); "
              "prior: tuning + init + proxy (§6.3, with the fault window). Same measurements in every arm. State-based metrics of §6 "
-             "(RMSE units: q rad, w rad/s, r m, v m/s, k –); 'converged': fraction of seeds converged; t statistics over converged seeds; "
+             "(RMSE units: q rad, w rad/s, r m, v m/s, k –); 'failed': runs in which the filter broke down numerically (counted as not converged, message in runs.parquet); 'converged': fraction of seeds converged; t statistics over converged seeds; "
              f"mean with a Student-t interval, median with a BCa bootstrap interval ({pct}%). Filter-based metrics are in runs.parquet.")
     tables = [Table("summary", TITLE, summary, notes, default_format=".3g")]
 

@@ -93,3 +93,23 @@ def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
     assert not out.exists()
+
+
+def test_a_filter_breakdown_is_counted_not_fatal(tmp_path):
+    """A run whose filter raised (P not positive definite) counts as failed and not converged in the summary."""
+    from studies.chain_study import summarise
+    from studies.study_cmd import get_study
+
+    config = get_study("chain").load(quick=True)
+    base = {"experiment": "init", "scenario": "SC3", "lc_truth_rate_deg_s": 2.82, "prior_significant": True, "lc_rate_deg_s": 2.83,
+            "lc_rate_sigma_deg_s": 1e-3, "lc_rate_error_pct": 0.2, "tuning_chosen": "sc3", "tuning_correct": True}
+    good = {f"ekf_{a}_{g}_{m}": 1.0 for a in ARMS for g in "qwrvk" for m in ("conv_s", "rmse", "filter_conv_s", "filter_rmse")}
+    good |= {f"ekf_{a}_failed": "" for a in ARMS}
+    bad = dict(good) | {k: None for k in good if k.startswith("ekf_none_") and not k.endswith("failed")}
+    bad["ekf_none_failed"] = "ukf: covariance P is not positive definite"
+    runs = pd.DataFrame([{"run_id": "init-s000", "seed": 1, **base, **good}, {"run_id": "init-s001", "seed": 2, **base, **bad}])
+    summary = summarise(runs, config, tmp_path)[0].frame
+    none = summary[(summary["prior"] == "no prior") & (summary["group"] == "w")].iloc[0]
+    init = summary[(summary["prior"] == "prior: tuning + init") & (summary["group"] == "w")].iloc[0]
+    assert (none["failed"], none["converged"], none["t_conv mean (s)"]) == (1, 0.5, 1.0)
+    assert (init["failed"], init["converged"]) == (0, 1.0)
