@@ -48,13 +48,16 @@ def _out_path(path: Path | None, suffix: str, flag: str) -> Path | None:
     return path
 
 
-def _record(path: Path, lc, prior, mag_true=None) -> None:
-    """Log a light curve, its geometry and its spectra to a rerun recording at ``path`` (atomically)."""
+def _record(path: Path, lc, prior, mag_true=None, recording_id: str | None = None) -> None:
+    """Log a light curve, its geometry and its spectra to a rerun recording at ``path`` (atomically).
+
+    ``recording_id`` defaults to ``lightcurve-<file stem>``.
+    """
     import rerun as rr
 
     t = lc.t_s
     with atomic_path(path) as tmp:
-        rec = rr.RecordingStream("lcnav", recording_id=f"lightcurve-{path.stem}")
+        rec = rr.RecordingStream("lcnav", recording_id=recording_id or f"lightcurve-{path.stem}")
         rec.save(tmp)
         idx = [rr.TimeColumn("sim_time", duration=t)]
         rec.send_columns("/lightcurve/mag", indexes=idx, columns=rr.Scalars.columns(scalars=lc.mag))
