@@ -30,6 +30,7 @@ from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
+from studies.config import ConfigError, Field
 from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
 from studies.metrics import GROUPS, evaluate, filter_sigmas, state_errors
 from studies.recording import TIMELINE, recording, send_scalars
@@ -171,3 +172,133 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
             send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
         for entity, (te, values) in (extra_scalars or {}).items():
             send_scalars(rec, entity, te, values)
+
+
+# ---- what the filter studies of 002 §6 share: config fields, thresholds, priors, tables, figures
+
+#: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
+COMMON_FIELDS: dict[str, Field] = {
+    "threshold_att_deg": Field("float", "Convergence threshold of the attitude error, deg.", gt=0, default=2.0),
+    "threshold_rate_deg_s": Field("float", "Convergence threshold of the rate error, deg/s.", gt=0, default=2.0),
+    "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
+    "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
+    "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002).", gt=0, default=0.12),
+    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m.", gt=0, default=0.37),
+    "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
+    "gate_confidence": Field("float", "Chi-square validation gate confidence per source (002 §4.3).", gt=0, le=0.999999, default=0.99),
+    "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
+    "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
+    "record": Field("bool", "Write run.rrd (and errors.parquet) for every run.", default=True),
+}
+#: The per-run parameters among :data:`COMMON_FIELDS` (``confidence`` is summary-only).
+COMMON_RUN_FIELDS = tuple(k for k in COMMON_FIELDS if k != "confidence")
+GROUP_LABELS = {"q": "q_TS", "w": "ω_ST", "r": "r_ST", "v": "v_ST", "k": "J_T^k"}
+
+
+def check_common(params: dict) -> None:
+    """``inertia_guess_range`` is ``[lo, hi]`` with ``lo <= hi``."""
+    lo_hi = params["inertia_guess_range"]
+    if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
+        raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+
+
+def thresholds(params) -> dict:
+    """The convergence thresholds of a config/run, in SI units per group."""
+    return {"q": float(np.radians(params["threshold_att_deg"])), "w": float(np.radians(params["threshold_rate_deg_s"])),
+            "r": float(params["threshold_pos_m"]), "v": float(params["threshold_vel_m_s"]), "k": float(params["threshold_k"])}
+
+
+def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random.Generator) -> SpinPrior:
+    """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3).
+
+    ``direction="along"``: ``(1 + e) ω`` (a light curve's period error);
+    ``"random"``: ``ω + e |ω| u`` with ``u`` uniform on the unit sphere (always drawn, so the stream
+    of ``rng`` does not depend on the choice). 1-σ per axis ``e |ω|``.
+    """
+    u = rng.normal(size=3)
+    u /= np.linalg.norm(u)
+    w = np.asarray(w_T_T_true, dtype=float)
+    if direction == "along":
+        return SpinPrior.from_truth(w, error_fraction)
+    n = float(np.linalg.norm(w))
+    return SpinPrior(w + error_fraction * n * u, np.full(3, error_fraction * max(n, 1e-6)), source=f"truth ± {100 * error_fraction:.1f}% random direction")
+
+
+def median_interval(x, confidence: float = 0.95) -> tuple[float, float, float]:
+    """Median and its distribution-free order-statistic interval; NaN values count as +∞ (did not converge).
+
+    Censored values (a run that never converged) have no number but a rank, so
+    the binomial interval of the median (``scipy.stats.binom``) is used rather
+    than a bootstrap; infinite results are returned as NaN.
+    """
+    from scipy.stats import binom
+
+    v = np.sort(np.where(np.isfinite(np.asarray(x, dtype=float)), np.asarray(x, dtype=float), np.inf))
+    n = v.size
+    if n == 0:
+        return (np.nan, np.nan, np.nan)
+    med = float(np.median(v)) if np.isfinite(np.median(v)) else np.inf
+    a = 0.5 * (1.0 - confidence)
+    j = int(binom.ppf(a, n, 0.5))  # P(B <= j-1) < a: v[j-1] is the lower bound (1-based j)
+    k = n - j
+    lo = float(v[j - 1]) if j >= 1 else -np.inf
+    hi = float(v[k]) if k < n else np.inf
+    fin = lambda z: z if np.isfinite(z) else np.nan  # noqa: E731
+    return fin(med), fin(lo), fin(hi)
+
+
+def metric_tables(runs: pd.DataFrame, arms: list[tuple[str, str]], groups, *, confidence: float, scale_ess: float = 1e3):
+    """Paper-layout tables of §6: median convergence time and steady-state RMSE per (basis, group) × arm.
+
+    ``arms``: ``[(column label, query on runs)]``, e.g. ``("EKF +prior", "filter == 'ekf' and prior")``.
+    Returns ``(convergence, steady_state, stats)``: the first two with one column per arm (medians;
+    a non-converged run counts as +∞, so a median of NaN means most runs did not converge);
+    ``stats`` long: every (basis, group, arm) with runs converged, mean, sd, t interval of the mean
+    over the converged runs, median and its order-statistic interval.
+    """
+    from studies.stats import t_interval
+
+    conv, ess, stats_rows = [], [], []
+    for basis, prefix in (("state", ""), ("filter", "f_")):
+        for g in groups:
+            crow, erow = {"basis": basis, "component": GROUP_LABELS[g]}, {"basis": basis, "component": GROUP_LABELS[g]}
+            for label, query in arms:
+                sub = runs.query(query)
+                for metric, row, scale in ((f"ct_{prefix}{g}_s", crow, 1.0), (f"ess_{prefix}{g}", erow, scale_ess)):
+                    vals = pd.to_numeric(sub[metric], errors="coerce").to_numpy(dtype=float) * scale
+                    med, mlo, mhi = median_interval(vals, confidence)
+                    row[label] = med
+                    iv = t_interval(vals, confidence)
+                    fin = vals[np.isfinite(vals)]
+                    stats_rows.append({"basis": basis, "component": GROUP_LABELS[g], "arm": label,
+                                       "metric": "convergence time (s)" if scale == 1.0 else f"steady-state RMSE (x1e-{int(np.log10(scale_ess))})",
+                                       "runs": len(vals), "converged": int(fin.size), "mean": iv.estimate,
+                                       "sd": float(fin.std(ddof=1)) if fin.size > 1 else np.nan, "mean lo": iv.lo, "mean hi": iv.hi,
+                                       "median": med, "median lo": mlo, "median hi": mhi})
+            conv.append(crow)
+            ess.append(erow)
+    return pd.DataFrame(conv), pd.DataFrame(ess), pd.DataFrame(stats_rows)
+
+
+def read_error_series(out_dir: Path, run_ids) -> dict[str, pd.DataFrame]:
+    """``errors.parquet`` of each run that wrote one (``DIR/runs/<run_id>/errors.parquet``)."""
+    from studies.sweep import run_dir
+
+    out = {}
+    for rid in run_ids:
+        p = run_dir(out_dir, rid) / "errors.parquet"
+        if p.is_file():
+            out[rid] = pd.read_parquet(p)
+    return out
+
+
+def plot_error_bands(ax, series: list[pd.DataFrame], column: str, scale: float, label: str, color: str) -> None:
+    """Median over runs of ``column`` (× ``scale``) against time with the 25–75 % band."""
+    if not series:
+        return
+    t = series[0]["t_s"].to_numpy()
+    n = min(len(s) for s in series)
+    m = np.array([s[column].to_numpy()[:n] for s in series]) * scale
+    ax.plot(t[:n], np.median(m, axis=0), color=color, lw=1.2, label=f"{label} (median of {len(series)})")
+    ax.fill_between(t[:n], np.percentile(m, 25, axis=0), np.percentile(m, 75, axis=0), color=color, alpha=0.25, lw=0)
