@@ -30,8 +30,8 @@ from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.config import ConfigError, Field
 from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
+from studies.config import ConfigError, Field
 from studies.metrics import GROUPS, evaluate, filter_sigmas, state_errors
 from studies.recording import TIMELINE, recording, send_scalars
 from studies.truth import Truth
