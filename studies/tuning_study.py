@@ -16,7 +16,10 @@ Algorithm 1's score, per filter and scenario over the grid: the seed means of
 ``C_t`` and ``E_SS`` normalised min–max to [0, 1], then
 ``G = λ C_t + (1 − λ) E_SS`` (lower is better; the paper's "highest score" is
 this one's lowest). ``KF_sc`` is the best ``Q_d`` per scenario, ``KF_gen`` the
-best on ``general_scenario``. Tables 2 and 3: per filter, group and scenario,
+best on ``general_scenario``. A run where the filter breaks down (``P`` no
+longer positive definite, NaN/Inf) is stored as ``diverged`` with the reason,
+and its grid point is disqualified (no score, ranked last): the UKF does this
+on parts of the grid, as the paper warns. Tables 2 and 3: per filter, group and scenario,
 the median convergence time and steady-state RMSE of ``KF_sc`` and, next to
 it, of ``KF_gen`` on the same seeds. The selection uses the same runs it
 reports (the paper does the same), so ``KF_sc``'s figures are optimistic by
@@ -127,24 +130,32 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
-    run, meas = navigate(
-        tr, p["filter"], grid_tuning(p), rng, sigma_q_rad=p["sigma_q_rad"], sigma_r_m=p["sigma_r_m"],
-        gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
-        consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
-    )
+    try:
+        run, meas = navigate(
+            tr, p["filter"], grid_tuning(p), rng, sigma_q_rad=p["sigma_q_rad"], sigma_r_m=p["sigma_r_m"],
+            gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
+            consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
+        )
+    except ValueError as e:  # the filter broke down on this Q_d (P not positive definite, NaN/Inf): a result of the grid
+        return {"n_steps": len(tr.t), "diverged": True, "failure": str(e)}
     th = thresholds(p)
     metrics = run_metrics(tr, run, th)
     errors = error_series(tr, run)
     if p["record"]:
         record_navigation(workdir / "run.rrd", tr, run, meas, recording_id=f"tuning-{spec.run_id}")
-    return {"n_steps": len(tr.t), **metrics, **run_score_terms(errors, metrics, tracked_groups(p["scenario"]), th, p["duration_s"])}
+    return {"n_steps": len(tr.t), "diverged": False, "failure": "", **metrics,
+            **run_score_terms(errors, metrics, tracked_groups(p["scenario"]), th, p["duration_s"])}
 
 
 def scores(runs: pd.DataFrame, config) -> pd.DataFrame:
     """Algorithm 1: per filter, scenario and grid point, seed means of C_t and E_SS, normalised over the grid, and G."""
     blocks = [f"q_exp_{b}" for b in config["q_blocks"]]
+    runs = runs.assign(C_t_s=runs["C_t_s"].astype(float), E_SS=runs["E_SS"].astype(float))
     g = runs.groupby(["filter", "scenario", "q_index", *blocks], sort=False).agg(
-        runs=("C_t_s", "size"), converged=("converged_all", "sum"), C_t_s=("C_t_s", "mean"), E_SS=("E_SS", "mean")).reset_index()
+        runs=("C_t_s", "size"), diverged=("diverged", "sum"), converged=("converged_all", "sum"),
+        C_t_s=("C_t_s", "mean"), E_SS=("E_SS", "mean")).reset_index()
+    # a point where the filter broke down on any seed is disqualified: no score, ranked last
+    g.loc[g["diverged"] > 0, ["C_t_s", "E_SS"]] = np.nan
 
     def minmax(x):
         span = x.max() - x.min()
@@ -155,7 +166,7 @@ def scores(runs: pd.DataFrame, config) -> pd.DataFrame:
     g["E_SS_norm"] = key["E_SS"].transform(minmax)
     lam = config["score_weight"]
     g["G"] = lam * g["C_t_norm"] + (1 - lam) * g["E_SS_norm"]
-    g["rank"] = g.groupby(["filter", "scenario"], sort=False)["G"].rank(method="first").astype(int)
+    g["rank"] = g.groupby(["filter", "scenario"], sort=False)["G"].rank(method="first", na_option="bottom").astype(int)
     return g
 
 
@@ -173,7 +184,7 @@ def _q_label(row, blocks) -> str:
 
 def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Table]:
     """Tables 2 and 3 (KF_sc, and KF_gen in brackets as its own column), the chosen Q_d, the grid's scores; the scores figure."""
-    runs = runs.assign(converged_all=runs["converged_all"].astype(bool))
+    runs = runs.assign(diverged=runs["diverged"].astype(bool), converged_all=runs["converged_all"].fillna(False).astype(bool))
     sc_table = scores(runs, config)
     best = best_points(sc_table, config)
     blocks = list(config["q_blocks"])
