@@ -143,15 +143,16 @@ def navigate(truth: Truth, filter_name: str, arm: str, spin: SpinPrior | None, m
     seed sees the same data (paired comparisons). One-axis scenarios
     consider ``k1, k2`` instead of estimating them (as ``lcnav run``).
     """
-    from studies.run_cmd import _one_axis, _run_once
+    from studies.nav_study import navigate as navigate_once
+    from studies.nav_study import one_axis
 
     tuning_name = arm_tuning(arm, spin)
     tun = get_tuning(tuning_name)
-    consider = (12, 13) if _one_axis(truth.scenario.w_T0_T_rad_s) else ()
+    consider = (12, 13) if one_axis(truth.scenario.w_T0_T_rad_s) else ()
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
-    run, meas = _run_once(truth, filter_name, tun, tun.P_0, np.random.default_rng(measurement_seed), prior=spin, prior_use=use,
-                          proxy_mode="always", faults=faults, noise="isotropic", gate_confidence=gate_confidence,
-                          gate_start=gate_start_s, consider=consider, meas=None)
+    run, meas = navigate_once(truth, filter_name, tun, np.random.default_rng(measurement_seed), prior=spin, prior_use=use,
+                              proxy_mode="always", faults=faults, noise="isotropic", gate_confidence=gate_confidence,
+                              gate_start_s=gate_start_s, consider=consider)
     return run, meas, tuning_name
 
 
@@ -181,9 +182,9 @@ def flat_metrics(truth: Truth, run, prefix: str, *, rmse_from_s: float | None = 
 def record_lightcurve(path: Path, rendered: RenderedPrior, recording_id: str) -> None:
     """``/lightcurve/...`` and ``/spectrum/...`` of ``lcnav lightcurve render --record`` at ``path``."""
     from lightcurves.render import flux_to_mag
-    from studies.lightcurve_cmd import _record
+    from studies.lightcurve_cmd import write_lightcurve_recording
 
-    _record(path, rendered.simulated.lightcurve, rendered.extracted, mag_true=flux_to_mag(rendered.simulated.flux_true_w_m2),
+    write_lightcurve_recording(path, rendered.simulated.lightcurve, rendered.extracted, mag_true=flux_to_mag(rendered.simulated.flux_true_w_m2),
             recording_id=recording_id)
 
 
@@ -193,9 +194,9 @@ def record_run(path: Path, truth: Truth, run, meas, seed: int, name: str) -> Non
     ``name`` (e.g. ``ekf_prior``) tells apart runs of one filter in different
     arms, in the entity paths and in the recording id.
     """
-    from studies.run_cmd import _record
+    from studies.nav_study import record_navigation
 
-    _record(path, truth, dataclasses.replace(run, filter=name), meas, seed)
+    record_navigation(path, truth, dataclasses.replace(run, filter=name), meas, recording_id=f"{name}-seed{seed}")
 
 
 # ---------------------------------------------------------------- figures
