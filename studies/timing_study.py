@@ -127,7 +127,13 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
             rows.append(row)
     summary = pd.DataFrame(rows)
     per_seed = describe(runs, ["target"], [f"{c}_p{q}_ms" for c in PARTS for q in (50, 99)], confidence=conf)
-    per_seed = per_seed[["target", "n_runs"] + [c for c in per_seed.columns if c.endswith(("_mean", "_sd", "_ci_lo", "_ci_hi"))]]
+    names = {"n_runs": "runs"}
+    for col, label in PARTS.items():
+        for q in (50, 99):
+            m = f"{col}_p{q}_ms"
+            names.update({f"{m}_mean": f"{label} p{q} mean (ms)", f"{m}_sd": f"{label} p{q} sd",
+                          f"{m}_ci_lo": f"{label} p{q} {pct}% lo", f"{m}_ci_hi": f"{label} p{q} {pct}% hi"})
+    per_seed = per_seed[["target", *names]].rename(columns=names)
     notes = (
         f"{len(pooled)} timed iterations ({config['warmup_iterations']} warm-up iterations per run not counted) from "
         f"{config['n_seeds']} runs per target, one simulated pose measurement every {config['measurement_period_s']:g} s; "
