@@ -73,8 +73,17 @@ def expand(config: StudyConfig) -> list[RunSpec]:
 
 
 def converged_last(nees: dict, t_last_s: float, confidence: float) -> dict[str, bool]:
-    """Per filter: every NEES at epochs ``>= t_last_s`` is below the χ²(dof) ``confidence`` quantile."""
-    return {name: bool(np.all(e[t >= t_last_s - 1e-9] <= chi2.ppf(confidence, dof))) for name, (t, e, dof) in nees.items()}
+    """Per filter active at epochs ``>= t_last_s``: every NEES there is below the χ²(dof) ``confidence`` quantile.
+
+    A filter with no epoch in that window (the attitude filter after a switch to
+    the axisymmetric one) is left out.
+    """
+    out = {}
+    for name, (t, e, dof) in nees.items():
+        last = e[t >= t_last_s - 1e-9]
+        if last.size:
+            out[name] = bool(np.all(last <= chi2.ppf(confidence, dof)))
+    return out
 
 
 def execute(spec: RunSpec, workdir: Path) -> dict:
@@ -102,7 +111,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     out.update({
         "diverged": False, "failure": "", "converged": all(ok.values()),
         "symmetry_detected": run.switch_time_s is not None,
-        "translation_ok": ok["translation"], "attitude_ok": ok.get("attitude", ok.get("axisymmetric", False)),
+        "translation_ok": ok["translation"], "attitude_ok": ok.get("axisymmetric", ok.get("attitude", False)),
         "final_position_error_m": float(np.linalg.norm(last.x_s[:3] - truth.r_L[-1])),
         "final_attitude_error_deg": float(np.rad2deg(attitude_angle(mrp_to_quat(last.x_a[:3]), truth.q_IT[-1]))) if last.mode == "nominal" else None,
         "final_rate_error_rad_s": float(np.linalg.norm(last.x_a[3:6] - truth.w_T[-1])) if last.mode == "nominal" else None,

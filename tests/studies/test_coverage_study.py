@@ -45,5 +45,6 @@ def test_convergence_rule_is_the_chi_square_test_of_the_last_epochs():
     late_outlier[-3] = 1.01 * bound
     early_outlier = ok.copy()
     early_outlier[2] = 100 * bound
-    res = converged_last({"translation": (t, ok, 6), "late": (t, late_outlier, 6), "early": (t, early_outlier, 6)}, t[-10], 0.99)
+    ended = (t[:5], np.full(5, 100 * bound), 6)  # a filter replaced before the window (attitude -> axisymmetric)
+    res = converged_last({"translation": (t, ok, 6), "late": (t, late_outlier, 6), "early": (t, early_outlier, 6), "ended": ended}, t[-10], 0.99)
     assert res == {"translation": True, "late": False, "early": True}
