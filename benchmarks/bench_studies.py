@@ -43,9 +43,9 @@ COVERAGE_FRACTION_ICS = 2
 def _coverage_fraction_config(root: Path, n_ics: int) -> Path:
     """The full coverage config with ``n_initial_conditions = n_ics`` (every level, full horizon)."""
     text = default_config_path("coverage").read_text()
-    new, n = re.subn(r"(?m)^n_initial_conditions\s*=\s*\d+", f"n_initial_conditions = {n_ics}", text)
+    new, n = re.subn(r"(?m)^n_initial_conditions\s*=\s*\d+", f"n_initial_conditions = {n_ics}", text, count=1)
     if n != 1:
-        raise RuntimeError("coverage.toml: expected one n_initial_conditions line")
+        raise RuntimeError("coverage.toml: no n_initial_conditions line")
     path = root / "coverage-fraction.toml"
     path.write_text(new)
     return path
