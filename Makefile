@@ -12,7 +12,7 @@ export MPLBACKEND := Agg
 .PHONY: demo test bench system clean
 
 demo: $(STAMP)
-	$(VENV)/bin/lcnav simulate --scenario SC3 --duration 300 --dt 0.5 --seed 1 --out runs/demo
+	$(VENV)/bin/lcnav demo --out runs/demo
 
 test: $(STAMP)
 	$(PY) -m pytest

@@ -92,6 +92,35 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
     return "\n".join(lines)
 
 
+#: The filter studies of 002 §6 (their --quick sizes are set in studies/configs/<name>.toml).
+FILTER_STUDIES = ("tuning", "init", "proxy")
+
+
+def filter_studies_section(root: Path) -> str:
+    """Wall time of the 002 §6 studies at --quick with 1 and 2 local workers, and their recording size per run."""
+    rows = []
+    for name in FILTER_STUDIES:
+        base = None
+        for workers in (1, 2):
+            out = root / f"{name}-quick-{workers}w"
+            t0 = time.perf_counter()
+            res = run_study(name, quick=True, out=out, workers=workers, progress=False)
+            wall = time.perf_counter() - t0
+            base = base or wall
+            sizes = [p.stat().st_size for p in out.glob("runs/*/run.rrd")]
+            rows.append((name, workers, len(res.runs), f"{wall:.1f}", f"{base / wall:.2f}×", f"{res.runs['elapsed_s'].median():.2f}",
+                         f"{res.runs['n_steps'].iloc[0]}", f"{statistics.mean(sizes) / 1024:.0f}"))
+    lines = [
+        "### Filter studies of 002 §6 at `--quick` (`lcnav study tuning|init|proxy --quick`)",
+        "",
+        "| study | local workers | runs | wall time (s) | speed-up vs 1 worker | median run (s) | steps per run | recording per run (KiB) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    lines += ["", "Wall time includes the local Dask cluster's start-up; a run includes its truth, filter, metrics, errors.parquet and run.rrd."]
+    return "\n".join(lines)
+
+
 def run() -> str:
     rows, notes = [], []
     load_before = os.getloadavg()[0]
@@ -127,4 +156,6 @@ def run() -> str:
               + " (measured alone in the same run). The machine's 2 cores are shared with other work, so the",
               f"speed-up is what a user would see here, not the ideal 2× (1-min load average {load_before:.1f} before,",
               f"{os.getloadavg()[0]:.1f} after). Σ run / wall is the parallelism achieved (run times summed over wall time).", *notes]
+    with tempfile.TemporaryDirectory(prefix="lcnav-bench-filter-studies-") as tmp:
+        lines += ["", filter_studies_section(Path(tmp))]
     return "\n".join(lines) + "\n\n" + run_coverage()

@@ -206,12 +206,14 @@ def relative_state(target: np.ndarray, servicer: np.ndarray, k) -> np.ndarray:
 
 
 @numba.njit(cache=True, fastmath=False)
-def _cross(a, b):
+def cross3(a, b):
+    """``a × b`` of two 3-vectors, compiled (for numba code elsewhere in ``estimators``)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 @numba.njit(cache=True)
-def _rot(q):
+def quat_to_dcm_nb(q):
+    """``R(q)`` of one quaternion, compiled twin of :func:`estimators.attitude.quat_to_dcm` for numba code."""
     q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
     return np.array(
         [
@@ -223,7 +225,7 @@ def _rot(q):
 
 
 @numba.njit(cache=True)
-def _joint_rhs(z, J_S, mu):
+def joint_rhs(z, J_S, mu):
     """Right-hand side of the joint vector ``[x (15), s (13)]``.
 
     ``x`` is the relative state of eq. 17; ``s = [r_S_I, v_S_I, q_IS, ω_S_S]``
@@ -242,11 +244,11 @@ def _joint_rhs(z, J_S, mu):
     r_SI = s[0:3]
     q_IS = s[6:10]
     w_S = s[10:13]
-    R_TS = _rot(q)
-    R_IS = _rot(q_IS)
+    R_TS = quat_to_dcm_nb(q)
+    R_IS = quat_to_dcm_nb(q_IS)
     # servicer: Kepler + Euler
     rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
-    dw_S = -_cross(w_S, J_S * w_S) / J_S
+    dw_S = -cross3(w_S, J_S * w_S) / J_S
     out[15:18] = s[3:6]
     out[18:21] = -mu * r_SI / rs**3
     out[21] = 0.5 * (-q_IS[1] * w_S[0] - q_IS[2] * w_S[1] - q_IS[3] * w_S[2])
@@ -263,9 +265,9 @@ def _joint_rhs(z, J_S, mu):
 
     w_S_T = R_TS @ w_S
     w_T = w_S_T - w  # eq. 1 solved for the target's own rate
-    dw_T = -_cross(w_T, JT * w_T) / JT  # eq. 6, torque-free
+    dw_T = -cross3(w_T, JT * w_T) / JT  # eq. 6, torque-free
     # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
-    out[4:7] = _cross(w, w_S_T) + R_TS @ dw_S - dw_T
+    out[4:7] = cross3(w, w_S_T) + R_TS @ dw_S - dw_T
 
     # translation, eqs 8–15 via the transport theorem in the rotating T frame
     r_S_T = R_TS @ (R_IS.T @ r_SI)  # servicer position from Earth's centre, in T
@@ -273,7 +275,7 @@ def _joint_rhs(z, J_S, mu):
     rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
     a_I_T = -mu * r_S_T / rs**3 + mu * r_T_T / rt**3  # eqs 12–14
     out[7:10] = v
-    out[10:13] = a_I_T - 2.0 * _cross(w_T, v) - _cross(dw_T, r) - _cross(w_T, _cross(w_T, r))
+    out[10:13] = a_I_T - 2.0 * cross3(w_T, v) - cross3(dw_T, r) - cross3(w_T, cross3(w_T, r))
     out[13] = 0.0
     out[14] = 0.0
     return out
@@ -310,8 +312,8 @@ def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
     s = np.asarray(servicer, dtype=float)
     J = np.asarray(J_S_diag, dtype=float)
     if x.ndim == 1:
-        return _joint_rhs(np.concatenate([x, s]), J, mu)[:15]
-    return np.stack([_joint_rhs(np.concatenate([xi, s]), J, mu)[:15] for xi in x])
+        return joint_rhs(np.concatenate([x, s]), J, mu)[:15]
+    return np.stack([joint_rhs(np.concatenate([xi, s]), J, mu)[:15] for xi in x])
 
 
 @numba.njit(cache=True)
@@ -326,10 +328,10 @@ def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
     ss[0] = s0
     j = 1
     for i in range(n_steps):
-        k1 = _joint_rhs(z, J_S, mu)
-        k2 = _joint_rhs(z + 0.5 * dt * k1, J_S, mu)
-        k3 = _joint_rhs(z + 0.5 * dt * k2, J_S, mu)
-        k4 = _joint_rhs(z + dt * k3, J_S, mu)
+        k1 = joint_rhs(z, J_S, mu)
+        k2 = joint_rhs(z + 0.5 * dt * k1, J_S, mu)
+        k3 = joint_rhs(z + 0.5 * dt * k2, J_S, mu)
+        k4 = joint_rhs(z + dt * k3, J_S, mu)
         z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         if (i + 1) % stride == 0:
             xs[j] = z[:15]

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from estimators.dynamics import MU_EARTH, _cross, _joint_rhs, _rot, propagate_relative, propagate_relative_batch
+from estimators.dynamics import MU_EARTH, cross3, joint_rhs, quat_to_dcm_nb, propagate_relative, propagate_relative_batch
 from estimators.error_state import boxminus, boxplus, state_to_error_jacobians
 
 
@@ -44,7 +44,7 @@ def _dRu(q, u):
     q0 = q[0]
     qv = q[1:4]
     out = np.empty((3, 4))
-    c = _cross(qv, u)
+    c = cross3(qv, u)
     d = qv[0] * u[0] + qv[1] * u[1] + qv[2] * u[2]
     S = _skew(u)
     for i in range(3):
@@ -79,12 +79,12 @@ def _jac(z, J_S, mu):
     r_SI = s[0:3]
     q_IS = s[6:10]
     w_S = s[10:13]
-    R = _rot(q)
-    R_IS = _rot(q_IS)
-    dw_S = -_cross(w_S, J_S * w_S) / J_S
+    R = quat_to_dcm_nb(q)
+    R_IS = quat_to_dcm_nb(q_IS)
+    dw_S = -cross3(w_S, J_S * w_S) / J_S
     w_S_T = R @ w_S
     w_T = w_S_T - w
-    dw_T = -_cross(w_T, JT * w_T) / JT
+    dw_T = -cross3(w_T, JT * w_T) / JT
     # Euler: ω̇0 = c0 ω1 ω2, ω̇1 = c1 ω2 ω0, ω̇2 = c2 ω0 ω1 with J = diag(e^k1, 1, e^-k2)
     c0 = (1.0 - em2) / e1
     c1 = em2 - e1
@@ -144,16 +144,16 @@ def _rk4_stm(x0, s0, J_S, mu, dt, n_steps):
     z[15:] = s0
     Phi = np.eye(15)
     for _ in range(n_steps):
-        k1 = _joint_rhs(z, J_S, mu)
+        k1 = joint_rhs(z, J_S, mu)
         K1 = _jac(z, J_S, mu) @ Phi
         z2 = z + 0.5 * dt * k1
-        k2 = _joint_rhs(z2, J_S, mu)
+        k2 = joint_rhs(z2, J_S, mu)
         K2 = _jac(z2, J_S, mu) @ (Phi + 0.5 * dt * K1)
         z3 = z + 0.5 * dt * k2
-        k3 = _joint_rhs(z3, J_S, mu)
+        k3 = joint_rhs(z3, J_S, mu)
         K3 = _jac(z3, J_S, mu) @ (Phi + 0.5 * dt * K2)
         z4 = z + dt * k3
-        k4 = _joint_rhs(z4, J_S, mu)
+        k4 = joint_rhs(z4, J_S, mu)
         K4 = _jac(z4, J_S, mu) @ (Phi + dt * K3)
         z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         Phi = Phi + dt / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)

@@ -4,8 +4,12 @@ Mitsuba stereo frames (:mod:`perception.render`), point clouds from OpenCV
 features (:mod:`perception.stereo`), the coarse model of the preliminary phase
 (:mod:`perception.model`), rigid BCPD registration (:mod:`perception.bcpd`)
 and the pose measurements built on it (:mod:`perception.measure`).
+
+Only the numpy/scipy parts are imported here; ``perception.render`` and
+``perception.stereo`` load Mitsuba and OpenCV when imported themselves.
 """
 
 from perception.bcpd import BCPDResult, bcpd_rigid
+from perception.measure import PoseMeasurement, measure_pose
 
-__all__ = ["BCPDResult", "bcpd_rigid"]
+__all__ = ["BCPDResult", "bcpd_rigid", "PoseMeasurement", "measure_pose"]

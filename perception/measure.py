@@ -101,6 +101,7 @@ def measure_pose(
     scale_bounds: tuple[float, float] = (0.8, 1.2),
     min_points: int = 20,
     collinear_tol: float = 1e-3,
+    gamma: float = 0.1,
     **bcpd_kwargs,
 ) -> PoseMeasurement:
     """Pose measurement of eqs 3–8 of ``000_…`` from one stereo cloud.
@@ -119,6 +120,13 @@ def measure_pose(
     min_points : fewer finite points than this is a degenerate cloud.
     collinear_tol : a cloud whose second principal extent is below this
         fraction of its first is collinear (degenerate).
+    gamma : BCPD's initial ``σ²`` relative to the clouds' mean squared
+        distance. Eq. 3 already aligns the cloud with the filter's estimate, so
+        a small start (0.1, against Hirose's 1) keeps the first, wide-kernel
+        iterations from pulling the model's centroid onto the visible side's
+        centroid: on eight rendered one-sided views of the rocket body that
+        drift ended once in a local minimum 19° off with γ = 1, never with
+        0.1 (max 0.5°; ``benchmarks/RESULTS.md``).
     **bcpd_kwargs : passed to :func:`perception.bcpd.bcpd_rigid`.
     """
     C_TI_hat = _rotation("C_TI_hat", C_TI_hat)
@@ -139,7 +147,7 @@ def measure_pose(
         return _rejected("degenerate cloud: points are collinear (or coincident)", n)
 
     P_est = project_to_estimated_frame(cloud, C_TI_hat, C_IC, C_IL, r_L_hat)  # eq. 3
-    reg = bcpd_rigid(P_est, model_T, **bcpd_kwargs)  # eq. 4
+    reg = bcpd_rigid(P_est, model_T, gamma=gamma, **bcpd_kwargs)  # eq. 4
     C_TI = reg.R @ C_TI_hat  # eq. 5, R = C_TT̃
     sigma_T = mrp_of_C_TI(C_TI)  # eqs 6-7
     C_LT_hat = C_IL.T @ C_TI_hat.T

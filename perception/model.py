@@ -33,6 +33,7 @@ from itertools import permutations
 import numpy as np
 from scipy.spatial import Delaunay, cKDTree
 
+from estimators.attitude import quat_to_dcm, rotvec_to_quat
 from estimators.dynamics import cw_propagate
 
 __all__ = [
@@ -90,8 +91,6 @@ def accumulate_clouds(clouds_C, C_MC, o_M, *, rng: np.random.Generator | None = 
     axis per view, both drawn from ``rng``) stands in for SLAM drift.
     Returns ``(points_M (N, 3), origins_M (N, 3))``.
     """
-    from estimators.attitude import quat_to_dcm, rotvec_to_quat
-
     if len(clouds_C) != len(C_MC) or len(clouds_C) != len(o_M):
         raise ValueError("clouds_C, C_MC and o_M must have one entry per view")
     if (pose_noise_rad > 0 or pose_noise_m > 0) and rng is None:

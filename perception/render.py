@@ -36,7 +36,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
+from estimators.attitude import quat_to_dcm
 from lightcurves import scene as lscene
 from lightcurves.targets import Target
 
@@ -128,8 +130,6 @@ def pose_from_relative_state(x) -> tuple[np.ndarray, np.ndarray]:
     ``C_CT = R(q_TS)ᵀ``; ``r_ST_T`` is the servicer relative to the target in T,
     so the target relative to the camera is ``r_TC_C = −C_CT r_ST_T``.
     """
-    from estimators.attitude import quat_to_dcm
-
     x = np.asarray(x, dtype=float)
     C_CT = quat_to_dcm(x[0:4]).T
     return C_CT, -C_CT @ x[7:10]
@@ -153,8 +153,6 @@ def pointing_dcm(los_I, up_I) -> np.ndarray:
 
 def _texture_pattern(rng: np.random.Generator, n: int = 128, blur_texels: float = 4.0) -> np.ndarray:
     """Blurred uniform noise on an ``n × n`` periodic grid, rescaled to [0.35, 1]."""
-    from scipy.ndimage import gaussian_filter
-
     g = gaussian_filter(rng.random((n, n)), blur_texels, mode="wrap")
     g = (g - g.min()) / (g.max() - g.min())
     return (0.35 + 0.65 * g).astype(np.float32)
@@ -291,7 +289,7 @@ class StereoRenderer:
         self.poser.set_sensor("camera_right", self._to_world(C_TC, o_left_T + b_T))
         self.poser.set_sun(C_TC @ np.asarray(sun_C, dtype=float))
         if self.lamp:
-            self.poser.params["lamp.position"] = mi.Point3f(*(o_left_T + 0.5 * b_T))
+            self.poser.params["lamp.position"] = mi.Point3f(*(float(v) for v in o_left_T + 0.5 * b_T))
             self.poser.params.update()
         out = {}
         for side in ("left", "right"):

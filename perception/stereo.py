@@ -6,8 +6,8 @@ should cover the whole target rather than be few and strong. The paper picked
 SURF, which is not in OpenCV's free build; AKAZE is not in the OpenCV 5.0
 wheel either, so :func:`feature_cover` compares ORB, SIFT and Shi-Tomasi
 corners (GFTT) by the fraction of the ROI's 8-px cells holding a feature. ORB
-— the default — covered best on lcnav's targets (0.88–0.96 against 0.6–0.8
-for SIFT and 0.3–0.8 for GFTT at 30–50 m, ``benchmarks/RESULTS.md``). For
+— the default — covered best on lcnav's targets (0.88–0.95 against 0.55–0.80
+for SIFT and 0.66–0.88 for GFTT at 30–50 m, ``benchmarks/RESULTS.md``). For
 parallel cameras the match of a left feature lies on the same row of the right
 image with positive disparity ``α = u_left − u_right``: each feature is
 matched by normalised cross-correlation of a patch along that row (a sparse
@@ -31,7 +31,7 @@ import numpy as np
 
 from perception.render import StereoCamera
 
-__all__ = ["DETECTORS", "PointCloud", "tone_map", "roi_mask", "detect", "feature_cover", "stereo_cloud", "triangulate"]
+__all__ = ["DETECTORS", "PointCloud", "luminance", "tone_map", "roi_mask", "detect", "feature_cover", "stereo_cloud", "triangulate"]
 
 DETECTORS = ("orb", "sift", "gftt")
 
@@ -61,7 +61,8 @@ def tone_map(lum: np.ndarray, white: float, gamma: float = 2.2) -> np.ndarray:
     return np.round(255.0 * x ** (1.0 / gamma)).astype(np.uint8)
 
 
-def _luminance(rgb: np.ndarray) -> np.ndarray:
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Relative luminance (Rec. 709 weights) of linear RGB ``(..., 3)``."""
     return np.asarray(rgb, dtype=float) @ np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -165,7 +166,7 @@ def stereo_cloud(
     search (``f d b / min_range``). ``patch_half_px``, ``min_ncc``,
     ``uniqueness``: the row matcher (:func:`_match_along_row`).
     """
-    L, R = _luminance(left_rgb), _luminance(right_rgb)
+    L, R = luminance(left_rgb), luminance(right_rgb)
     n = camera.resolution_px
     if L.shape != (n, n) or R.shape != (n, n):
         raise ValueError(f"left_rgb and right_rgb must be ({n}, {n}, 3) images, got {L.shape}, {R.shape}")

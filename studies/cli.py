@@ -32,6 +32,7 @@ from studies import lightcurve_cmd; lightcurve_cmd.register(app)  # noqa: E402, 
 from studies import run_cmd; run_cmd.register(app)  # noqa: E402,E702
 from studies import combina_cmd; combina_cmd.register(app)  # noqa: E402,E702
 from studies import perception_cmd; perception_cmd.register(app)  # noqa: E402, E702
+from studies import demo; demo.register(app)  # noqa: E402,E702
 
 #: Exceptions that mean "the user's input is wrong": one line, exit 2.
 USER_ERRORS = (ValueError, KeyError, FileNotFoundError, FileExistsError, NotADirectoryError, IsADirectoryError)

@@ -48,13 +48,16 @@ def _out_path(path: Path | None, suffix: str, flag: str) -> Path | None:
     return path
 
 
-def _record(path: Path, lc, prior, mag_true=None) -> None:
-    """Log a light curve, its geometry and its spectra to a rerun recording at ``path`` (atomically)."""
+def write_lightcurve_recording(path: Path, lc, prior, mag_true=None, recording_id: str | None = None) -> None:
+    """Log a light curve, its geometry and its spectra to a rerun recording at ``path`` (atomically).
+
+    ``recording_id`` defaults to ``lightcurve-<file stem>``.
+    """
     import rerun as rr
 
     t = lc.t_s
     with atomic_path(path) as tmp:
-        rec = rr.RecordingStream("lcnav", recording_id=f"lightcurve-{path.stem}")
+        rec = rr.RecordingStream("lcnav", recording_id=recording_id or f"lightcurve-{path.stem}")
         rec.save(tmp)
         idx = [rr.TimeColumn("sim_time", duration=t)]
         rec.send_columns("/lightcurve/mag", indexes=idx, columns=rr.Scalars.columns(scalars=lc.mag))
@@ -161,7 +164,7 @@ def render(
         prior = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None)
         from lightcurves.render import flux_to_mag
 
-        _record(record, lc, prior, mag_true=flux_to_mag(sim.flux_true_w_m2))
+        write_lightcurve_recording(record, lc, prior, mag_true=flux_to_mag(sim.flux_true_w_m2))
         typer.echo(f"lcnav: wrote {record}", err=True)
 
 
@@ -202,7 +205,7 @@ def prior(
     else:
         typer.echo(p.decision)
     if record is not None:
-        _record(record, lc, p)
+        write_lightcurve_recording(record, lc, p)
 
 
 def register(app: typer.Typer) -> None:

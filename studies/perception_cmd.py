@@ -105,26 +105,19 @@ def _record(path: Path, frame, left_u8, right_u8, cloud, model_C, registered_C) 
         rec.disconnect()
 
 
-@perception_app.command("frames")
-def frames(
-    target: str = typer.Option("box-wing", help="atlas-centaur, vespa, box-wing or sphere"),
-    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m"),
-    seed: int = typer.Option(1, help="seed of the attitude, Sun direction and estimate errors"),
-    out: Path = typer.Option(..., help="output directory"),
-    resolution: int = typer.Option(512, help="rendered image size, px (Table 1's field of view at any size; 1024 = Table 1)"),
-    spp: int = typer.Option(16, help="samples per pixel"),
-    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg"),
-    estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m"),
-    as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
-) -> None:
-    """Render a stereo pair, build its point cloud, register it; write images, cloud and frames.rrd."""
-    _validate_frames(target, range_m, resolution, spp, out)
+def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 512, spp: int = 16, estimate_error_deg: float = 5.0, estimate_error_m: float = 0.3, estimate_scale: bool = True, gamma: float = 0.1):
+    """Render one stereo frame, build its cloud and register it (eqs 3–8); nothing is written.
+
+    The attitude, Sun direction (from the camera's side) and the estimate's
+    errors are drawn from ``seed``. Returns ``(frame, cloud, depth_true,
+    model_T, C_CT, r_TC_C, measurement, summary)``.
+    """
     from estimators.attitude import dcm_angle, quat_to_dcm, rotvec_to_quat
     from lightcurves.targets import get_target
     from perception.measure import measure_pose
     from perception.model import mesh_surface_points
     from perception.render import StereoCamera, StereoRenderer
-    from perception.stereo import _luminance, stereo_cloud, tone_map
+    from perception.stereo import stereo_cloud
 
     rng = np.random.default_rng(seed)
     tgt = get_target(target)
@@ -155,13 +148,10 @@ def frames(
     r_hat = r_TC_C + estimate_error_m * offset / np.linalg.norm(offset)
     eye = np.eye(3)
     t3 = time.perf_counter()
-    meas = measure_pose(cloud.points_C, model_T, C_TI_hat=C_TC_hat, C_IC=eye, C_IL=eye, r_L_hat=r_hat)
+    meas = measure_pose(cloud.points_C, model_T, C_TI_hat=C_TC_hat, C_IC=eye, C_IL=eye, r_L_hat=r_hat, estimate_scale=estimate_scale, gamma=gamma)
     t4 = time.perf_counter()
-    model_C = model_T @ C_CT.T + r_TC_C
-    registered_C = None
     reg = {"accepted": meas.accepted, "reason": meas.reason, "bcpd_ms": 1e3 * (t4 - t3)}
     if meas.registration is not None:
-        registered_C = model_T @ meas.C_TI + meas.r_L  # C_CT_measured = C_TI_measuredᵀ with I = C
         reg.update(
             rotation_error_deg=float(np.rad2deg(dcm_angle(meas.C_TI, C_CT.T))),
             position_error_m=float(np.linalg.norm(meas.r_L - r_TC_C)),
@@ -169,6 +159,11 @@ def frames(
             iterations=meas.registration.iterations,
             sigma_m=float(np.sqrt(meas.registration.sigma2)),
         )
+        # the symmetry axis (the moment unlike the other two): roll about it is unobservable (§V.B)
+        if target in ("atlas-centaur", "vespa"):
+            sym = int(np.argmax(np.abs(tgt.J_diag - np.median(tgt.J_diag))))
+            a_true, a_meas = C_CT[:, sym], meas.C_TI[sym]
+            reg["symmetry_axis_error_deg"] = float(np.rad2deg(np.arccos(np.clip(a_true @ a_meas, -1.0, 1.0))))
     summary = {
         "target": target,
         "range_m": range_m,
@@ -184,10 +179,38 @@ def frames(
         "stereo_s": t2 - t1,
         "registration": reg,
     }
+    return frame, cloud, depth_true, model_T, C_CT, r_TC_C, meas, summary
 
-    white = float(_luminance(frame.left).max()) or 1.0
-    left_u8 = tone_map(_luminance(frame.left), white)
-    right_u8 = tone_map(_luminance(frame.right), white)
+
+@perception_app.command("frames")
+def frames(
+    target: str = typer.Option("box-wing", help="atlas-centaur, vespa, box-wing or sphere"),
+    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m"),
+    seed: int = typer.Option(1, help="seed of the attitude, Sun direction and estimate errors"),
+    out: Path = typer.Option(..., help="output directory"),
+    resolution: int = typer.Option(512, help="rendered image size, px (Table 1's field of view at any size; 1024 = Table 1)"),
+    spp: int = typer.Option(16, help="samples per pixel"),
+    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg"),
+    estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m"),
+    rigid: bool = typer.Option(False, "--rigid", help="hold BCPD's scale at 1 (no scale gate)"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
+) -> None:
+    """Render a stereo pair, build its point cloud, register it; write images, cloud and frames.rrd."""
+    _validate_frames(target, range_m, resolution, spp, out)
+    from perception.stereo import luminance, tone_map
+
+    frame, cloud, depth_true, model_T, C_CT, r_TC_C, meas, summary = frame_pipeline(
+        target, range_m, seed, resolution=resolution, spp=spp, estimate_error_deg=estimate_error_deg, estimate_error_m=estimate_error_m, estimate_scale=not rigid
+    )
+    reg = summary["registration"]
+    err_frac = summary["median_depth_error_fraction"]
+    model_C = model_T @ C_CT.T + r_TC_C
+    # C_CT measured = C_TI measuredᵀ (I = C for a single frame)
+    registered_C = None if meas.registration is None else model_T @ meas.C_TI + meas.r_L
+
+    white = float(luminance(frame.left).max()) or 1.0
+    left_u8 = tone_map(luminance(frame.left), white)
+    right_u8 = tone_map(luminance(frame.right), white)
     import cv2
     import pandas as pd
 

@@ -31,22 +31,18 @@ import numpy as np
 import pandas as pd
 import typer
 
-from estimators.dynamics import k_from_inertia
-from estimators.error_state import ERROR_SLICES, boxminus
-from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
-from estimators.prior import PROXY_MODES, SpinPrior, initialize_with_prior, prior_from_rate, tuning_for_prior
-from estimators.tuning import TUNINGS, Tuning, get_tuning
-from perception.simulated_pose import NOISE_MODELS, parse_faults, simulate_pose_measurements
+from estimators.navigation import FILTERS, SOURCES, NavigationRun
+from estimators.prior import PROXY_MODES, SpinPrior, prior_from_rate, tuning_for_prior
+from estimators.tuning import TUNINGS, get_tuning
+from perception.simulated_pose import NOISE_MODELS, parse_faults
 from studies.io import write_json, write_table
 from studies.metrics import GROUPS, chi_square_band, evaluate, fraction_in_band, nees
-from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
-from studies.recording import TIMELINE, recording, send_scalars
+from studies.nav_study import K_STATES, navigate, one_axis, record_navigation
 from studies.scenarios import get_scenario
 from studies.truth import RELATIVE_COLUMNS, Truth, simulate_truth
 
 PRIOR_USES = ("none", "init", "proxy")
 ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
-QUAT_AXES = ("0", "1", "2", "3")
 MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
 
 
@@ -77,28 +73,6 @@ def _read_measurements(path: Path):
     return a[:, 0], q, a[:, 5:8]
 
 
-def _one_axis(w) -> bool:
-    return int(np.count_nonzero(np.asarray(w, dtype=float))) <= 1
-
-
-def _run_once(tr: Truth, filter_name, tuning: Tuning, P0, rng, *, prior, prior_use, proxy_mode, faults, noise, gate_confidence, gate_start, consider, meas):
-    if meas is None:
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), faults=faults, noise=noise)
-        meas = (m.t, m.q_TS, m.r_ST_T)
-    a = rng.uniform(0.7, 1.3, 3)
-    x0 = np.zeros(15)
-    x0[0] = 1.0
-    x0[13:15] = k_from_inertia(tr.J_T_diag * a)
-    if prior_use in ("init", "proxy"):
-        x0, P0 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
-    run = run_navigation(
-        filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas, x0=x0, P0=P0, tuning=tuning,
-        gate_confidence=gate_confidence, gate_start_s=gate_start, prior=prior,
-        proxy=proxy_mode if prior_use == "proxy" else None, consider=consider,
-    )
-    return run, meas
-
-
 def _metrics_dict(m) -> dict:
     return {g: {"convergence_time_s": _num(c.convergence_time_s), "steady_state_rmse": _num(c.steady_state_rmse)} for g, c in m.items()}
 
@@ -118,45 +92,6 @@ def _states_table(tr: Truth, run: NavigationRun) -> pd.DataFrame:
         cols[f"accepted_{s}"] = run.accepted[s]
     cols["proxy_used"] = run.proxy_used
     return pd.DataFrame(cols)
-
-
-def _record(path: Path, tr: Truth, run: NavigationRun, meas, seed: int) -> None:
-    """``run.rrd`` in the layout of :mod:`studies.blueprint`, with its viewer layout."""
-    import rerun as rr
-
-    f, t = run.filter, tr.t
-    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
-    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
-                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
-    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
-    with recording(path, recording_id=f"run-{tr.scenario.name}-{f}-seed{seed}", blueprint=blueprint) as rec:
-        send_truth(rec, "q_TS", t, tr.x[:, 0:4], QUAT_AXES)
-        send_estimate(rec, f, "q_TS", t, run.x[:, 0:4], axes=QUAT_AXES)
-        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
-        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
-        for name, (sl, esl, axes) in quantities.items():
-            send_truth(rec, name, t, tr.x[:, sl], axes)
-            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
-        tm, qm, rm = meas
-        send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
-        send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))
-        for s in SOURCES:
-            ok = np.isfinite(run.nis[s])
-            if ok.any():
-                send_scalars(rec, f"/gate/{f}/{s}/e2", t[ok], run.nis[s][ok])
-        by_source = {s: [d for d in run.decisions if d.source == s] for s in SOURCES}
-        for s, ds in by_source.items():
-            if ds:
-                td = np.array([d.t for d in ds])
-                send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
-                send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
-        rec.set_time(TIMELINE, duration=0.0)
-        for d in run.decisions:
-            if not d.accepted:
-                rec.set_time(TIMELINE, duration=float(d.t))
-                rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
-        if run.proxy_used.any():
-            send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
 
 
 def run(
@@ -242,14 +177,14 @@ def run(
             raise ValueError(f"--p0-diag: P_0 must be positive definite (all 14 variances > 0), got {p0_diag!r}")
         P0 = np.diag(d)
     meas = _read_measurements(measurements) if measurements is not None else None
-    consider = (12, 13) if _one_axis(sc.w_T0_T_rad_s) else ()
+    consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
 
     # ---- run
     results = []
     for i in range(runs):
         rng = np.random.default_rng(seed + i)
-        run_i, meas_i = _run_once(tr, filter_, tun, P0, rng, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, noise=noise,
-                                  gate_confidence=gate_confidence or None, gate_start=gate_start, consider=consider, meas=meas)
+        run_i, meas_i = navigate(tr, filter_, tun, rng, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, noise=noise,
+                                 gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, meas=meas)
         results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
     states = np.arange(12) if consider else np.arange(14)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
@@ -282,7 +217,7 @@ def run(
     # ---- write (atomically, after everything has succeeded)
     out.mkdir(parents=True, exist_ok=True)
     write_table(out / "states.parquet", _states_table(tr, first))
-    _record(out / "run.rrd", tr, first, meas0, seed)
+    record_navigation(out / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
     write_json(out / "metrics.json", metrics)
     typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
 

@@ -64,3 +64,17 @@ def test_pose_helpers():
     C_IC = pointing_dcm(los, np.array([0.0, 0.0, 1.0]))
     assert np.allclose(C_IC.T @ C_IC, np.eye(3)) and np.isclose(np.linalg.det(C_IC), 1.0)
     assert np.allclose(C_IC @ np.array([0, 0, -1.0]), los / np.linalg.norm(los))
+
+
+def test_chaser_lamp_lights_the_side_the_sun_does_not():
+    cam = StereoCamera(resolution_px=64)
+    target = get_target("sphere", radius_m=2.0)
+    sun_behind = np.array([0.0, 0.0, -1.0])  # Sun behind the target: the visible hemisphere is dark
+    dark = StereoRenderer(target, cam, texture=False).render(np.eye(3), np.array([0.0, 0.0, -30.0]), sun_behind, spp=4)
+    lit = StereoRenderer(target, cam, lamp_intensity_w_sr=1.0e5, texture=False).render(np.eye(3), np.array([0.0, 0.0, -30.0]), sun_behind, spp=4)
+    disc = np.isfinite(lit.depth_left)
+    assert disc.sum() > 50
+    assert dark.left[disc].max() < 1e-6 * dark.white_radiance
+    # a Lambertian sphere lit head-on by the lamp: centre radiance ~ albedo/π · I/d²
+    centre = lit.left[32, 32].mean()
+    assert centre == pytest.approx(0.5 / np.pi * 1.0e5 / 28.0**2, rel=0.1)

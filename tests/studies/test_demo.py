@@ -1,0 +1,76 @@
+"""``lcnav demo --quick``: light curve -> WindowCLEAN prior -> EKF/UKF on SC3 with and without it."""
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lightcurves.io import read_lightcurve
+from studies.cli import main
+from studies.inspect_cmd import export_series
+
+RERUN = Path("/work/main/.venv/bin/rerun")
+RUNS = ("ekf", "ekf_prior", "ukf", "ukf_prior")
+
+
+@pytest.fixture(scope="module")
+def demo_out(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("demo") / "out"
+    assert main(["demo", "--quick", "--out", str(out)]) == 0
+    return out
+
+
+def test_files_exist(demo_out):
+    expected = ["comparison.parquet", "comparison.csv", "summary.md", "runs.parquet", "runs.csv", "prior.json", "lightcurve.ecsv",
+                "lightcurve.png", "spectrum.png", "lightcurve.rrd", *(f"{r}.rrd" for r in RUNS), *(f"errors_{r}.png" for r in RUNS)]
+    for name in expected:
+        assert (demo_out / name).is_file() and (demo_out / name).stat().st_size > 0, name
+    for png in demo_out.glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_every_recording_verifies(demo_out):
+    rrds = sorted(demo_out.glob("*.rrd"))
+    assert len(rrds) == 5
+    for rrd in rrds:
+        r = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
+        assert r.returncode == 0, (rrd, r.stderr)
+
+
+def test_prior_rate_within_3_percent_of_the_rendered_truth(demo_out):
+    prior = json.loads((demo_out / "prior.json").read_text())
+    truth = read_lightcurve(demo_out / "lightcurve.ecsv").meta["truth_rate_rad_s"]  # the rate the curve was rendered with
+    assert prior["significant"]
+    assert abs(prior["rate_rad_s"] / truth - 1.0) < 0.03
+    # the ω vector is the rate about the assumed axis, and says so
+    w = np.array(prior["prior_w_T_T_rad_s"])
+    assert np.linalg.norm(w) == pytest.approx(prior["rate_rad_s"], rel=1e-12)
+    assert np.allclose(w / np.linalg.norm(w), prior["assumed_axis_T"])
+    assert "ASSUMPTION" in prior["mapping"]
+
+
+def test_table_has_both_filters_with_and_without_the_prior(demo_out):
+    table = pd.read_parquet(demo_out / "comparison.parquet")
+    assert set(zip(table["filter"], table["prior"])) == {(f, p) for f in ("EKF", "UKF") for p in ("no prior", "prior: tuning + init")}
+    assert {"t_conv w (s)", "RMSE w (rad/s)", "t_conv k (s)", "RMSE k (-)"} <= set(table.columns)
+    md = (demo_out / "summary.md").read_text()
+    assert "EKF" in md and "UKF" in md and "prior: tuning + init" in md
+
+
+def test_prior_starts_the_filters_at_the_light_curve_rate(demo_out):
+    """Read back from the recordings: with the prior the initial ω error is the light curve's (< 3 % of |ω|), without it |ω_ST|."""
+    prior = json.loads((demo_out / "prior.json").read_text())
+    rate = prior["truth_rate_rad_s"]
+    for f in ("ekf", "ukf"):
+        with_prior, _ = export_series(demo_out / f"{f}_prior.rrd")
+        without, _ = export_series(demo_out / f"{f}.rrd")
+        assert len(with_prior) == len(without) == 121  # one row per step of the 120 s run at 1 s
+        e0 = lambda df, name: np.linalg.norm([df[f"/estimate/{name}/error/w_ST_T/{a}/value"].iloc[0] for a in "xyz"])  # noqa: E731
+        truth0 = np.linalg.norm([without[f"/truth/w_ST_T/{a}"].iloc[0] for a in "xyz"])
+        assert e0(without, f) == pytest.approx(truth0, rel=1e-9)  # ω̂_0 = 0: the error is the whole relative rate
+        # with the prior: the light curve's rate error (< 3 % of |ω_T|) plus R(q̂_TS,0) ω_S − R(q_TS,0) ω_S (≤ 2 |ω_S| ≈ 2.2e-3 rad/s)
+        assert e0(with_prior, f"{f}_prior") < 0.03 * rate + 2.5e-3
+        assert e0(with_prior, f"{f}_prior") < 0.1 * e0(without, f)
