@@ -2,26 +2,20 @@
 
 :func:`assert_study_outputs` is the check every CoMBiNa study's quick run must pass (tables, figures,
 recordings that verify, an export with one row per step); the coverage and timing tests import it.
+Unlike ``quick_study_checks.check_recordings`` it accepts runs without a recording (a coverage run
+whose filter broke down) and measurement epochs that are not whole seconds (0.33 Hz).
 """
 
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from quick_study_checks import PNG, RERUN, run_quick
 from studies.cli import main
 from studies.combina_study import COMPONENTS
-
-RERUN = Path(sys.executable).with_name("rerun")
-
-
-def run_quick(name: str, root: Path) -> Path:
-    out = root / name
-    assert main(["study", name, "--quick", "--workers", "2", "--out", str(out)]) == 0
-    return out
 
 
 def assert_study_outputs(out: Path, figures: list[str], tmp_path: Path) -> pd.DataFrame:
@@ -30,7 +24,7 @@ def assert_study_outputs(out: Path, figures: list[str], tmp_path: Path) -> pd.Da
         assert (out / name).is_file(), name
     for fig in figures:
         png = (out / fig).read_bytes()
-        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5_000, fig
+        assert png[:8] == PNG and len(png) > 5_000, fig
     runs = pd.read_parquet(out / "runs.parquet")
     rrds = sorted(out.glob("runs/*/run.rrd"))
     assert rrds, "no recording written"
@@ -49,7 +43,7 @@ def assert_study_outputs(out: Path, figures: list[str], tmp_path: Path) -> pd.Da
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory) -> Path:
-    return run_quick("combina", tmp_path_factory.mktemp("combina"))
+    return run_quick("combina", tmp_path_factory.mktemp("combina") / "out")
 
 
 def test_outputs_recordings_and_export(quick, tmp_path):

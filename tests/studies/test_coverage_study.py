@@ -8,12 +8,13 @@ import pytest
 from scipy.stats import chi2
 
 from studies.coverage_study import converged_last
-from test_combina_study import assert_study_outputs, run_quick
+from quick_study_checks import run_quick
+from test_combina_study import assert_study_outputs
 
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory) -> Path:
-    return run_quick("coverage", tmp_path_factory.mktemp("coverage"))
+    return run_quick("coverage", tmp_path_factory.mktemp("coverage") / "out")
 
 
 def test_outputs_recordings_and_export(quick, tmp_path):

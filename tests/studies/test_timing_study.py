@@ -7,12 +7,13 @@ import pandas as pd
 import pytest
 
 from studies.timing_study import iterations_per_seed
-from test_combina_study import assert_study_outputs, run_quick
+from quick_study_checks import run_quick
+from test_combina_study import assert_study_outputs
 
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory) -> Path:
-    return run_quick("timing", tmp_path_factory.mktemp("timing"))
+    return run_quick("timing", tmp_path_factory.mktemp("timing") / "out")
 
 
 def test_outputs_recordings_and_export(quick, tmp_path):
