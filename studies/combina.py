@@ -121,6 +121,11 @@ class CombinaConfig:
         if n < 2:
             raise ValueError(f"duration-tu × rate-hz gives {n} measurement(s); need at least 2")
 
+    def epochs_s(self) -> np.ndarray:
+        """The measurement epochs ``0, Δt, …, nΔt`` (s) of a run, ``n = ⌊duration × rate⌋``."""
+        n_meas = int(np.floor(self.effective_duration_s * self.rate_hz))
+        return (1.0 / self.rate_hz) * np.arange(n_meas + 1)
+
     @property
     def effective_duration_s(self) -> float:
         """``--quick`` caps the run at 0.25 TU (simulated) or 0.05 TU (rendered, ~16 frames)."""
@@ -152,13 +157,20 @@ def target_k(target: str, measurements: str = "simulated") -> np.ndarray:
     return K_TARGETS[target].copy()
 
 
-def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None) -> Truth:
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None) -> Truth:
     """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH.
 
-    ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`).
+    ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`);
+    ``q_IT0`` and ``w_T0_rad_s`` the target's initial attitude and body rate
+    (default: eq. 47's), e.g. for the random initial conditions of §VII.
     """
     k = K_TARGETS[target].copy() if k is None else np.asarray(k, dtype=float)
-    tr = simulate_truth(replace(SCENARIO, name=f"COMBINA-{target}", k=(float(k[0]), float(k[1]))), duration_s, dt_s)
+    sc = replace(SCENARIO, name=f"COMBINA-{target}", k=(float(k[0]), float(k[1])))
+    if q_IT0 is not None:
+        sc = replace(sc, q_IT0=tuple(float(v) for v in q_IT0))
+    if w_T0_rad_s is not None:
+        sc = replace(sc, w_T0_T_rad_s=tuple(float(v) for v in w_T0_rad_s))
+    tr = simulate_truth(sc, duration_s, dt_s)
     s, g = tr.servicer, tr.target
     C_LI = lvlh_dcm(s[:, 0:3], s[:, 3:6])
     w_L = np.array([0.0, 0.0, N_RAD_S])
@@ -192,6 +204,9 @@ class Step:
     spin_e: np.ndarray  #: (2,) [e, (ω_y/A)²] and
     spin_sd: np.ndarray  #: their 1-σ (nan in nominal mode)
     shadow_switch: bool
+    P_s: np.ndarray  #: (6, 6) SI covariance of the translational estimate
+    P_a: np.ndarray  #: (8, 8) covariance of the attitude estimate (nan in axisymmetric mode)
+    P_ax: np.ndarray  #: (3, 3) covariance of [φ, δ, Γ/A] (nan in nominal mode)
 
 
 @dataclass(frozen=True)
@@ -207,6 +222,7 @@ class CombinaRun:
     switch_time_s: float | None
     C_GammaI: np.ndarray | None  #: the axisymmetric filter's initial frame I_Γ (None without a switch)
     iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
+    registration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the registration's part of it (the source's ``measure``)
     proxy_updates: int = 0
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
@@ -232,8 +248,8 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     # Separate streams: the measurements of a seed do not depend on how the filter is initialised.
     rng, rng_meas = (np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(2))
     dt = 1.0 / cfg.rate_hz
-    n_meas = int(np.floor(cfg.effective_duration_s * cfg.rate_hz))
-    t = dt * np.arange(n_meas + 1)
+    t = cfg.epochs_s()
+    n_meas = t.size - 1
     if truth is None:
         truth = simulate_lvlh_truth(cfg.target, t[-1], dt, k=target_k(cfg.target, cfg.measurements))
     if truth.t.shape != t.shape or not np.allclose(truth.t, t):
@@ -279,10 +295,14 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
             xax, sdax, ax_I, C = axi.x[:3].copy(), np.sqrt(np.diag(axi.P))[:3], axi.axis_I(), axi.frame_dcm().copy()
             sq = axi.spin_quantities()
             se, ssd = sq.x_e, np.sqrt(np.diag(sq.P_e))
-        steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, C_GammaI=C, spin_e=se, spin_sd=ssd, shadow_switch=switched))
+        Pa = att.P.copy() if axi is None else np.full((8, 8), np.nan)
+        Pax = np.full((3, 3), np.nan) if axi is None else axi.P[:3, :3].copy()
+        steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, C_GammaI=C, spin_e=se, spin_sd=ssd, shadow_switch=switched,
+                          P_s=trans.P.copy(), P_a=Pa, P_ax=Pax))
 
     record(0.0, False)
     iteration_s = np.zeros(n_meas)
+    registration_s = np.zeros(n_meas)
     for i in range(1, n_meas + 1):
         tic = time.perf_counter()
         ti = float(t[i])
@@ -293,7 +313,9 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         else:
             axi.predict(dt)
         q_hat = att.q_IT if axi is None else _attitude_with_axis(axi.axis_I(), att.q_IT)
+        tic_m = time.perf_counter()
         m = source.measure(ti, truth.r_L[i], truth.q_IT[i], r_L_hat=trans.x[:3], q_IT_hat=q_hat)
+        registration_s[i - 1] = time.perf_counter() - tic_m
         meas.append(m)
         switched = False
 
@@ -337,7 +359,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None))
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None))
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
@@ -422,6 +444,32 @@ def component_errors(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray,
         out["phi"] = (t[ax], wrap_pi(xx[:, 0] - phi_t)[:, None], sdx[:, :1])
         out["delta"] = (t[ax], (xx[:, 1] - delta_t)[:, None], sdx[:, 1:2])
         out["gamma_over_a"] = (t[ax], (xx[:, 2] - g_t)[:, None], sdx[:, 2:3])
+    return out
+
+
+#: The filters' error vectors, as concatenations of :func:`component_errors`' components.
+FILTER_COMPONENTS = {"translation": ("r", "v"), "attitude": ("sigma", "w", "k"), "axisymmetric": ("phi", "delta", "gamma_over_a")}
+
+
+def filter_nees(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, int]]:
+    """``{filter: (t, NEES, dof)}``: ``eᵀ P⁻¹ e`` of each filter's full error at each of its steps.
+
+    The normalised estimation error squared is χ²-distributed with as many
+    degrees of freedom as the filter has states (6, 8, 3) when the filter is
+    consistent: the Mahalanobis test of 000 §VII ("the errors of the last 10
+    time steps have a probability of at least 99%").
+    """
+    errs = component_errors(run)
+    mode = np.array([s.mode for s in run.steps])
+    cov = {"translation": (np.ones(mode.size, bool), "P_s"), "attitude": (mode == "nominal", "P_a"), "axisymmetric": (mode == "axisymmetric", "P_ax")}
+    out = {}
+    for name, comps in FILTER_COMPONENTS.items():
+        sel, attr = cov[name]
+        if not sel.any():
+            continue
+        e = np.concatenate([errs[c][1] for c in comps], axis=1)
+        P = np.array([getattr(s, attr) for s, k in zip(run.steps, sel) if k])
+        out[name] = (errs[comps[0]][0], np.einsum("ni,ni->n", e, np.linalg.solve(P, e[..., None])[..., 0]), e.shape[1])
     return out
 
 

@@ -18,7 +18,8 @@ import pandas as pd
 import typer
 
 from estimators.attitude import mrp_to_quat
-from studies.combina import CombinaConfig, CombinaRun, component_errors, make_source, run_combina, run_metrics
+from studies.blueprint import run_blueprint, send_error
+from studies.combina import FILTER_COMPONENTS, CombinaConfig, CombinaRun, component_errors, run_combina, run_metrics
 from studies.io import write_json, write_table
 from studies.recording import TIMELINE, recording, rr, send_poses, send_scalars, time_column
 
@@ -74,17 +75,38 @@ def C_IL_at(run: CombinaRun, t: float) -> np.ndarray:
     return run.truth.C_LI[int(np.argmin(np.abs(run.truth.t - t)))].T
 
 
-def write_recording(path: Path, run: CombinaRun) -> None:
-    """``combina.rrd``: truth, estimates with ±3σ, measurements, gate events, mode switches."""
+def _set_time(rec, t_s: float) -> None:
+    """Set ``sim_time`` to ``t_s`` exactly as :func:`studies.recording.time_column` stamps it.
+
+    Rerun rounds a float given to ``set_time`` to nanoseconds but truncates a float
+    column (``(t·1e9).astype(timedelta64[ns])``); at a 0.33 Hz epoch (3.0303… s) the two
+    differ by 1 ns and one epoch became two rows. The column's rule is used for both.
+    """
+    rec.set_time(TIMELINE, duration=(np.array([t_s], dtype=float) * 1e9).astype("timedelta64[ns]")[0])
+
+
+def combina_blueprint(run: CombinaRun):
+    """The viewer layout: each filter's errors within ±3σ, gate events (and clouds for the rendered chain)."""
+    errs = component_errors(run)
+    filters = [f for f, comps in FILTER_COMPONENTS.items() if comps[0] in errs]
+    return run_blueprint(quantities=[c for f in filters for c in FILTER_COMPONENTS[f]], filters=filters, gates=True,
+                         cloud=any(m.cloud_L is not None for m in run.measurements))
+
+
+def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = None) -> None:
+    """``combina.rrd``: errors with ±3σ, truth and estimated poses, measurements, gate events, mode switches, iteration times.
+
+    Errors follow :mod:`studies.blueprint`'s layout
+    (``/estimate/<filter>/error/<component>/<axis>/{value,plus3sigma,minus3sigma}``) and the
+    recording carries :func:`combina_blueprint`. Every entry lies on a measurement epoch.
+    """
     ones = lambda n: np.ones(n, dtype=int)  # noqa: E731  one point per time step
-    with recording(path, recording_id=f"combina-{run.config.target}-seed{run.config.seed}") as rec:
+    rid = recording_id or f"combina-{run.config.target}-seed{run.config.seed}"
+    with recording(path, recording_id=rid, blueprint=combina_blueprint(run)) as rec:
+        filter_of = {c: f for f, comps in FILTER_COMPONENTS.items() for c in comps}
         for name, (t, err, sd) in component_errors(run).items():
-            filt = "translation" if name in ("r", "v") else ("attitude" if name in ("sigma", "w", "k") else "axisymmetric")
-            names = [str(j) for j in range(err.shape[1])]
-            send_scalars(rec, f"/estimate/{filt}/{name}/error", t, err, names)
-            send_scalars(rec, f"/estimate/{filt}/{name}/plus_3sigma", t, 3.0 * sd, names)
-            send_scalars(rec, f"/estimate/{filt}/{name}/minus_3sigma", t, -3.0 * sd, names)
-        t = run.truth.t
+            send_error(rec, filter_of[name], name, t, err, sd, axes=[str(j) for j in range(err.shape[1])])
+        t = np.array([s.t for s in run.steps])  # the measurement epochs (truth.t may differ in the last bit)
         send_poses(rec, "/truth/target", t, run.truth.r_L, run.truth.q_IT)
         nom = np.array([s.mode == "nominal" for s in run.steps])
         send_poses(rec, "/estimate/attitude/target", t[nom], np.array([s.x_s[:3] for s in run.steps])[nom], mrp_to_quat(np.array([s.x_a[:3] for s in run.steps])[nom]))
@@ -97,22 +119,25 @@ def write_recording(path: Path, run: CombinaRun) -> None:
         for m in run.measurements:  # rendered chain: measured cloud and the model at the measured pose (p_L = r_L + C_LT p_T)
             if m.cloud_L is None:
                 continue
-            rec.set_time(TIMELINE, duration=m.t)
+            _set_time(rec, m.t)
             rec.log("/cloud/measured", rr.Points3D(m.cloud_L, colors=[80, 160, 255]))
             if run.model_T is not None and np.isfinite(m.scale):
                 rec.log("/cloud/model", rr.Points3D(m.r_L + run.model_T @ (m.C_TI @ C_IL_at(run, m.t)), colors=[255, 160, 60]))
         for g in run.gates:
-            rec.set_time(TIMELINE, duration=g.t)
+            _set_time(rec, g.t)
             if not np.isnan(g.e2):
                 rec.log(f"/gate/{g.source}/e2", rr.Scalars(g.e2))
             if not g.accepted:
                 rec.log(f"/gate/{g.source}/events", rr.TextLog(f"rejected: {g.reason} (e2={g.e2:.3g}, bounds [{g.lower:.3g}, {g.upper:.3g}])", level=rr.TextLogLevel.WARN))
         if run.symmetry:
             send_scalars(rec, "/estimate/symmetry/discrepancy_rad", [c.t for c in run.symmetry], [c.discrepancy_rad for c in run.symmetry])
-        rec.set_time(TIMELINE, duration=0.0)
+        t_it = t[1 : 1 + run.iteration_s.size]
+        send_scalars(rec, "/timing/iteration_s", t_it, run.iteration_s)
+        send_scalars(rec, "/timing/registration_s", t_it, run.registration_s)
+        _set_time(rec, 0.0)
         rec.log("/estimate/mode", rr.TextLog("mode: nominal (translational + attitude UKF)"))
         if run.switch_time_s is not None:
-            rec.set_time(TIMELINE, duration=run.switch_time_s)
+            _set_time(rec, run.switch_time_s)
             rec.log("/estimate/mode", rr.TextLog("symmetry detected: switched to axisymmetric mode", level=rr.TextLogLevel.WARN))
 
 

@@ -30,7 +30,7 @@ from typing import Optional
 import pandas as pd
 import typer
 
-from studies import chain_study, init_study, proxy_study, truth_study, tuning_study
+from studies import chain_study, combina_study, coverage_study, init_study, proxy_study, timing_study, truth_study, tuning_study
 from studies.config import Field, StudyConfig, default_config_path, load_config
 from studies.io import write_json, write_table
 from studies.sweep import RunSpec, check_scheduler, check_workers, run_sweep
@@ -78,7 +78,7 @@ STUDIES: dict[str, StudyDefinition] = {
         StudyDefinition("truth", truth_study.TITLE, truth_study.FIELDS, truth_study.expand, truth_study.execute,
                         truth_study.summarise, truth_study.check),
         *(StudyDefinition(m.__name__.split(".")[-1].removesuffix("_study"), m.TITLE, m.FIELDS, m.expand, m.execute, m.summarise, m.check)
-          for m in (tuning_study, init_study, proxy_study, chain_study)),
+          for m in (tuning_study, init_study, proxy_study, chain_study, combina_study, coverage_study, timing_study)),
     ]
 }
 

@@ -1,0 +1,51 @@
+"""`lcnav study coverage --quick`: outputs, and the converged fraction falling with the tumbling rate (Fig. 20)."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import chi2
+
+from studies.coverage_study import converged_last
+from quick_study_checks import run_quick
+from test_combina_study import assert_study_outputs
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory) -> Path:
+    return run_quick("coverage", tmp_path_factory.mktemp("coverage") / "out")
+
+
+def test_outputs_recordings_and_export(quick, tmp_path):
+    runs = assert_study_outputs(quick, ["coverage.png"], tmp_path)
+    # every run that did not break down wrote its recording
+    assert len(list(quick.glob("runs/*/run.rrd"))) == int((~runs["diverged"].astype(bool)).sum())
+
+
+def test_converged_fraction_falls_with_tumbling_rate(quick):
+    """Fig. 20 of 000: convergence is high at slow tumbling and drops at fast tumbling."""
+    summary = pd.read_parquet(quick / "summary.parquet").sort_values("rate (Hz)")
+    slow, fast = summary.iloc[0], summary.iloc[-1]
+    assert slow["converged"] >= fast["converged"]
+    assert slow["converged"] >= 0.5 and fast["converged"] < slow["converged"]
+    for _, row in summary.iterrows():
+        assert row["95% lo"] <= row["converged"] <= row["95% hi"]
+        assert row["converged"] == pytest.approx(row["converged runs"] / row["runs"])
+    # the drawn rates are the levels: |ω| = 2π f
+    runs = pd.read_parquet(quick / "runs.parquet")
+    assert np.allclose(runs["rate_rad_s"], 2 * np.pi * runs["rate_level_hz"], rtol=1e-12)
+    assert runs["k1"].between(-1.5, 1.5).all() and runs["k1"].nunique() == len(runs)
+
+
+def test_convergence_rule_is_the_chi_square_test_of_the_last_epochs():
+    t = np.arange(20.0)
+    bound = chi2.ppf(0.99, 6)
+    ok = np.full(20, 0.5 * bound)
+    late_outlier = ok.copy()
+    late_outlier[-3] = 1.01 * bound
+    early_outlier = ok.copy()
+    early_outlier[2] = 100 * bound
+    ended = (t[:5], np.full(5, 100 * bound), 6)  # a filter replaced before the window (attitude -> axisymmetric)
+    res = converged_last({"translation": (t, ok, 6), "late": (t, late_outlier, 6), "early": (t, early_outlier, 6), "ended": ended}, t[-10], 0.99)
+    assert res == {"translation": True, "late": False, "early": True}
