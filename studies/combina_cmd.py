@@ -21,7 +21,7 @@ from estimators.attitude import mrp_to_quat
 from studies.blueprint import run_blueprint, send_error
 from studies.combina import FILTER_COMPONENTS, CombinaConfig, CombinaRun, component_errors, run_combina, run_metrics
 from studies.io import write_json, write_table
-from studies.recording import TIMELINE, recording, rr, send_poses, send_scalars, time_column
+from studies.recording import recording, rr, send_poses, send_scalars, set_sim_time, time_column
 
 AXES = ("x", "y", "z")
 
@@ -75,16 +75,6 @@ def C_IL_at(run: CombinaRun, t: float) -> np.ndarray:
     return run.truth.C_LI[int(np.argmin(np.abs(run.truth.t - t)))].T
 
 
-def _set_time(rec, t_s: float) -> None:
-    """Set ``sim_time`` to ``t_s`` exactly as :func:`studies.recording.time_column` stamps it.
-
-    Rerun rounds a float given to ``set_time`` to nanoseconds but truncates a float
-    column (``(t·1e9).astype(timedelta64[ns])``); at a 0.33 Hz epoch (3.0303… s) the two
-    differ by 1 ns and one epoch became two rows. The column's rule is used for both.
-    """
-    rec.set_time(TIMELINE, duration=(np.array([t_s], dtype=float) * 1e9).astype("timedelta64[ns]")[0])
-
-
 def combina_blueprint(run: CombinaRun):
     """The viewer layout: each filter's errors within ±3σ, gate events (and clouds for the rendered chain)."""
     errs = component_errors(run)
@@ -119,12 +109,12 @@ def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = N
         for m in run.measurements:  # rendered chain: measured cloud and the model at the measured pose (p_L = r_L + C_LT p_T)
             if m.cloud_L is None:
                 continue
-            _set_time(rec, m.t)
+            set_sim_time(rec, m.t)
             rec.log("/cloud/measured", rr.Points3D(m.cloud_L, colors=[80, 160, 255]))
             if run.model_T is not None and np.isfinite(m.scale):
                 rec.log("/cloud/model", rr.Points3D(m.r_L + run.model_T @ (m.C_TI @ C_IL_at(run, m.t)), colors=[255, 160, 60]))
         for g in run.gates:
-            _set_time(rec, g.t)
+            set_sim_time(rec, g.t)
             if not np.isnan(g.e2):
                 rec.log(f"/gate/{g.source}/e2", rr.Scalars(g.e2))
             if not g.accepted:
@@ -134,10 +124,10 @@ def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = N
         t_it = t[1 : 1 + run.iteration_s.size]
         send_scalars(rec, "/timing/iteration_s", t_it, run.iteration_s)
         send_scalars(rec, "/timing/registration_s", t_it, run.registration_s)
-        _set_time(rec, 0.0)
+        set_sim_time(rec, 0.0)
         rec.log("/estimate/mode", rr.TextLog("mode: nominal (translational + attitude UKF)"))
         if run.switch_time_s is not None:
-            _set_time(rec, run.switch_time_s)
+            set_sim_time(rec, run.switch_time_s)
             rec.log("/estimate/mode", rr.TextLog("symmetry detected: switched to axisymmetric mode", level=rr.TextLogLevel.WARN))
 
 

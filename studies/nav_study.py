@@ -33,7 +33,7 @@ from perception.simulated_pose import simulate_pose_measurements
 from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
 from studies.config import ConfigError, Field
 from studies.metrics import GROUPS, evaluate, filter_sigmas, state_errors
-from studies.recording import TIMELINE, recording, send_scalars
+from studies.recording import recording, send_scalars, set_sim_time
 from studies.truth import Truth
 
 QUAT_AXES = ("0", "1", "2", "3")
@@ -163,10 +163,10 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
                 td = np.array([d.t for d in ds])
                 send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
                 send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
-        rec.set_time(TIMELINE, duration=0.0)
+        set_sim_time(rec, 0.0)
         for d in run.decisions:
             if not d.accepted:
-                rec.set_time(TIMELINE, duration=float(d.t))
+                set_sim_time(rec, d.t)
                 rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
         if run.proxy_used.any():
             send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))

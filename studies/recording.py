@@ -39,7 +39,15 @@ def recording(path, *, recording_id: str | None = None, application_id: str = "l
 
 def time_column(t_s) -> rr.TimeColumn:
     """The ``sim_time`` index column for ``t_s`` seconds."""
-    return rr.TimeColumn(TIMELINE, duration=np.asarray(t_s, dtype=float))
+    # rounded to whole nanoseconds: rerun truncates float seconds, which can split
+    # one epoch (e.g. 3.0303… s) from the same epoch logged with set_time (rounded)
+    ns = np.round(np.asarray(t_s, dtype=float) * 1e9).astype(np.int64)
+    return rr.TimeColumn(TIMELINE, duration=ns.astype("timedelta64[ns]"))
+
+
+def set_sim_time(rec, t_s: float) -> None:
+    """Set ``sim_time`` for the next ``log`` calls, stamped exactly as :func:`time_column` stamps it."""
+    rec.set_time(TIMELINE, duration=np.timedelta64(int(np.round(float(t_s) * 1e9)), "ns"))
 
 
 def send_scalars(rec, entity: str, t_s, values, names=None) -> None:
