@@ -99,12 +99,10 @@ def absolute_rhs(t: float, y, J_diag, mu: float = MU_EARTH) -> np.ndarray:
     """Keplerian orbit plus torque-free attitude, ``y = [r_I, v_I, q_IB, ω_B]`` (13).
 
     ``q̇_IB = ½ q_IB ⊗ [0, ω_B]`` (DESIGN.md), ``ω̇_B`` from Euler's equations.
+    Compiled (:func:`absolute_rhs_nb`): the truth integrations call it tens of
+    thousands of times, and the relative model uses it for the servicer.
     """
-    y = np.asarray(y, dtype=float)
-    r, v, q, w = y[0:3], y[3:6], y[6:10], y[10:13]
-    a = -mu * r / np.linalg.norm(r) ** 3
-    qdot = 0.5 * quat_multiply(q, np.concatenate([[0.0], w]))
-    return np.concatenate([v, a, qdot, euler_rhs(w, J_diag)])
+    return absolute_rhs_nb(np.asarray(y, dtype=float), np.asarray(J_diag, dtype=float), float(mu))
 
 
 @dataclass(frozen=True)
@@ -146,7 +144,7 @@ def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1
     scale = np.concatenate([np.full(3, L), np.full(3, V), np.ones(7)])
 
     def rhs(t, z):
-        return absolute_rhs(t, z * scale, J, mu) / scale
+        return absolute_rhs_nb(z * scale, J, mu) / scale
 
     sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0 / scale, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
     if not sol.success:
@@ -225,6 +223,25 @@ def quat_to_dcm_nb(q):
 
 
 @numba.njit(cache=True)
+def absolute_rhs_nb(s, J, mu):
+    """Compiled :func:`absolute_rhs`: ``ṡ`` of ``s = [r_I, v_I, q_IB, ω_B]``."""
+    out = np.empty(13)
+    r = s[0:3]
+    q = s[6:10]
+    w = s[10:13]
+    rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+    out[0:3] = s[3:6]
+    out[3:6] = -mu * r / rn**3
+    # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of 002_…)
+    out[6] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
+    out[7] = 0.5 * (q[0] * w[0] - q[3] * w[1] + q[2] * w[2])
+    out[8] = 0.5 * (q[3] * w[0] + q[0] * w[1] - q[1] * w[2])
+    out[9] = 0.5 * (-q[2] * w[0] + q[1] * w[1] + q[0] * w[2])
+    out[10:13] = -cross3(w, J * w) / J
+    return out
+
+
+@numba.njit(cache=True)
 def joint_rhs(z, J_S, mu):
     """Right-hand side of the joint vector ``[x (15), s (13)]``.
 
@@ -248,14 +265,8 @@ def joint_rhs(z, J_S, mu):
     R_IS = quat_to_dcm_nb(q_IS)
     # servicer: Kepler + Euler
     rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
-    dw_S = -cross3(w_S, J_S * w_S) / J_S
-    out[15:18] = s[3:6]
-    out[18:21] = -mu * r_SI / rs**3
-    out[21] = 0.5 * (-q_IS[1] * w_S[0] - q_IS[2] * w_S[1] - q_IS[3] * w_S[2])
-    out[22] = 0.5 * (q_IS[0] * w_S[0] - q_IS[3] * w_S[1] + q_IS[2] * w_S[2])
-    out[23] = 0.5 * (q_IS[3] * w_S[0] + q_IS[0] * w_S[1] - q_IS[1] * w_S[2])
-    out[24] = 0.5 * (-q_IS[2] * w_S[0] + q_IS[1] * w_S[1] + q_IS[0] * w_S[2])
-    out[25:28] = dw_S
+    out[15:28] = absolute_rhs_nb(s, J_S, mu)
+    dw_S = out[25:28]
 
     # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
     out[0] = 0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3])
