@@ -95,15 +95,6 @@ def test_bad_command_line(tmp_path, capsys, args, message):
     assert not out.exists()
 
 
-def test_study_with_a_config_but_no_runner(tmp_path, capsys):
-    pending = [n for n in PAPER_STUDIES if n not in STUDIES]
-    if not pending:
-        pytest.skip("every paper study is registered")
-    assert main(["study", pending[0], "--out", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"study {pending[0]!r} has a config ({pending[0]}.toml) but no runner is registered" in err[0]
-
-
 def test_cli_process_prints_one_line_and_no_traceback(tmp_path, lcnav_env):
     cfg = tmp_path / "bad.toml"
     cfg.write_text(GOOD.replace("n_seeds = 2", "n_seeds = -3"))
