@@ -85,8 +85,7 @@ _path = libllvm_path()
 if _path and "DRJIT_LIBLLVM_PATH" not in os.environ:
     os.environ["DRJIT_LIBLLVM_PATH"] = _path
 
-import drjit as dr  # noqa: E402  (after DRJIT_LIBLLVM_PATH is set)
-import mitsuba as mi  # noqa: E402
+import mitsuba as mi  # noqa: E402  (after DRJIT_LIBLLVM_PATH is set)
 
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 

@@ -30,7 +30,7 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, draw_prior, error_series, median_interval, metric_tables,
-    navigate, one_axis, plot_error_bands, read_error_series, record_navigation, run_metrics, thresholds,
+    navigate, one_axis, paired_error_figure, record_navigation, run_metrics, thresholds,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.sweep import RunSpec, make_specs
@@ -148,33 +148,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 def plot_fig6(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
     """Fig. 6 of ``002_…``: errors of q_TS, ω_ST and k against time, without and with the prior (median and IQR over seeds)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    series = read_error_series(path.parent, runs["run_id"])
-    filters = list(dict.fromkeys(runs["filter"]))
     th = thresholds(config)
     rows = [("q", np.degrees(1.0), "q_TS error (deg)", np.degrees(th["q"])), ("w", np.degrees(1.0), "ω_ST error (deg/s)", np.degrees(th["w"])),
             ("k", 1.0, "k error |δk|", th["k"])]
-    fig, axes = plt.subplots(len(rows), len(filters), figsize=(4.8 * len(filters), 7.2), layout="constrained", sharex=True, squeeze=False)
-    for j, f in enumerate(filters):
-        for i, (g, scale, label, thr) in enumerate(rows):
-            ax = axes[i, j]
-            for prior, color in ((False, "tab:blue"), (True, "tab:orange")):
-                ids = runs.query(f"filter == '{f}' and prior == {prior}")["run_id"]
-                plot_error_bands(ax, [series[r] for r in ids if r in series], f"err_{g}", scale,
-                                 "with prior" if prior else "no prior", color)
-            ax.axhline(thr, color="k", ls="--", lw=0.8, label="threshold")
-            ax.set_yscale("log")
-            ax.set_ylabel(label)
-            if i == 0:
-                ax.set_title(f"{f.upper()} — {config['scenario']}")
-            if i == len(rows) - 1:
-                ax.set_xlabel("time (s)")
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    paired_error_figure(runs, path, arm="prior", labels=("no prior", "with prior"), rows=rows, scenario=config["scenario"])

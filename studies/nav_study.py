@@ -34,6 +34,7 @@ from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, se
 from studies.config import ConfigError, Field
 from studies.metrics import GROUPS, evaluate, filter_sigmas, state_errors
 from studies.recording import recording, send_scalars, set_sim_time
+from studies.io import atomic_path
 from studies.truth import Truth
 
 QUAT_AXES = ("0", "1", "2", "3")
@@ -302,3 +303,45 @@ def plot_error_bands(ax, series: list[pd.DataFrame], column: str, scale: float, 
     m = np.array([s[column].to_numpy()[:n] for s in series]) * scale
     ax.plot(t[:n], np.median(m, axis=0), color=color, lw=1.2, label=f"{label} (median of {len(series)})")
     ax.fill_between(t[:n], np.percentile(m, 25, axis=0), np.percentile(m, 75, axis=0), color=color, alpha=0.25, lw=0)
+
+
+def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tuple[str, str], rows, scenario: str,
+                        shade: tuple[float, float] | None = None) -> None:
+    """Errors against time, one column per filter, the two arms of a paired study overlaid.
+
+    ``arm`` is the boolean column of ``runs`` that tells the arms apart (``prior``,
+    ``proxy``), ``labels`` their legend names (False, True); ``rows`` are
+    ``(group, scale, y label, threshold or None)``; ``shade`` an interval to grey
+    out (a fault window). Median and inter-quartile band over seeds
+    (:func:`plot_error_bands`), log scale; written atomically as PNG.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = read_error_series(path.parent, runs["run_id"])
+    filters = list(dict.fromkeys(runs["filter"]))
+    fig, axes = plt.subplots(len(rows), len(filters), figsize=(4.8 * len(filters), 1.8 * len(rows) + 1.8),
+                             layout="constrained", sharex=True, squeeze=False)
+    for j, f in enumerate(filters):
+        for i, (g, scale, label, thr) in enumerate(rows):
+            ax = axes[i, j]
+            if shade is not None:
+                ax.axvspan(*shade, color="0.85", label="fault window")
+            for value, color in ((False, "tab:blue"), (True, "tab:orange")):
+                ids = runs.query(f"filter == '{f}' and {arm} == {value}")["run_id"]
+                plot_error_bands(ax, [series[r] for r in ids if r in series], f"err_{g}", scale, labels[value], color)
+            if thr is not None:
+                ax.axhline(thr, color="k", ls="--", lw=0.8, label="threshold")
+            ax.set_yscale("log")
+            ax.set_ylabel(label)
+            if i == 0:
+                ax.set_title(f"{f.upper()} — {scenario}")
+            if i == len(rows) - 1:
+                ax.set_xlabel("time (s)")
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)

@@ -34,7 +34,7 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, K_STATES, check_common, draw_prior, error_series, median_interval,
-    navigate, one_axis, plot_error_bands, read_error_series, record_navigation,
+    navigate, one_axis, paired_error_figure, record_navigation,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.stats import t_interval
@@ -201,30 +201,6 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 def plot_fig7(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
     """Fig. 7 of ``002_…``: q_TS and ω_ST errors against time, without and with the proxy, the fault window shaded."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    series = read_error_series(path.parent, runs["run_id"])
-    filters = list(dict.fromkeys(runs["filter"]))
-    rows = [("q", np.degrees(1.0), "q_TS error (deg)"), ("w", np.degrees(1.0), "ω_ST error (deg/s)")]
-    fig, axes = plt.subplots(len(rows), len(filters), figsize=(4.8 * len(filters), 5.4), layout="constrained", sharex=True, squeeze=False)
-    for j, f in enumerate(filters):
-        for i, (g, scale, label) in enumerate(rows):
-            ax = axes[i, j]
-            ax.axvspan(config["fault_start_s"], config["fault_start_s"] + config["fault_duration_s"], color="0.85", label="fault window")
-            for proxy, color in ((False, "tab:blue"), (True, "tab:orange")):
-                ids = runs.query(f"filter == '{f}' and proxy == {proxy}")["run_id"]
-                plot_error_bands(ax, [series[r] for r in ids if r in series], f"err_{g}", scale, "with proxy" if proxy else "no proxy", color)
-            ax.set_yscale("log")
-            ax.set_ylabel(label)
-            if i == 0:
-                ax.set_title(f"{f.upper()} — {config['scenario']}")
-            if i == len(rows) - 1:
-                ax.set_xlabel("time (s)")
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    rows = [("q", np.degrees(1.0), "q_TS error (deg)", None), ("w", np.degrees(1.0), "ω_ST error (deg/s)", None)]
+    paired_error_figure(runs, path, arm="proxy", labels=("no proxy", "with proxy"), rows=rows, scenario=config["scenario"],
+                        shade=(config["fault_start_s"], config["fault_start_s"] + config["fault_duration_s"]))
