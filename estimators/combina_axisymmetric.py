@@ -80,14 +80,21 @@ def spin_quantities(x, P) -> SpinQuantities:
     P = np.asarray(P, dtype=float)
     phi, delta, g = x[0], x[1], x[2]
     sp, cp, sd, cd = np.sin(phi), np.cos(phi), np.sin(delta), np.cos(delta)
-    u = 1.0 - sp**2 * cd**2  # 1 − J_y²
+    u = max(1.0 - sp**2 * cd**2, 0.0)  # 1 − J_y², clipped against round-off
     ru = np.sqrt(u)
     e = g * ru  # eq. 42
     wy2 = g**2 * sp**2 * cd**2  # eq. 43: (Γ/A)² − e²
     JF = np.zeros((2, x.shape[0]))  # eq. 45
-    JF[0, :3] = [-g * sp * cp * cd**2 / ru, g * sp**2 * cd * sd / ru, ru]
     JF[1, :3] = [2 * g**2 * sp * cp * cd**2, -2 * g**2 * sp**2 * cd * sd, 2 * g * sp**2 * cd**2]
-    return SpinQuantities(x_e=np.array([e, wy2]), P_e=JF @ P @ JF.T)  # eq. 44
+    if ru > 0.0:
+        JF[0, :3] = [-g * sp * cp * cd**2 / ru, g * sp**2 * cd * sd / ru, ru]
+        P_e = JF @ P @ JF.T  # eq. 44
+    else:
+        # symmetry axis along Γ (pure spin, e = 0): e = (Γ/A)·√u has a cone point
+        # there and no first-order covariance; say so with NaN rather than divide by 0
+        P_e = JF @ P @ JF.T
+        P_e[0, :] = P_e[:, 0] = np.nan
+    return SpinQuantities(x_e=np.array([e, wy2]), P_e=P_e)
 
 
 def _residual_azimuth_first(a, b):
