@@ -30,10 +30,10 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, draw_prior, error_series, median_interval, metric_tables,
-    navigate, one_axis, paired_error_figure, record_navigation, run_metrics, thresholds,
+    navigate, one_axis, paired_error_figure, paired_specs, record_navigation, run_metrics, thresholds,
 )
 from studies.scenarios import SCENARIOS, get_scenario
-from studies.sweep import RunSpec, make_specs
+from studies.sweep import RunSpec
 from studies.tables import Table
 from studies.truth import simulate_truth
 
@@ -64,11 +64,7 @@ def check(params: dict) -> None:
 
 def expand(config: StudyConfig) -> list[RunSpec]:
     """Filters × {no prior, prior} × seeds; run ids ``<filter>-<none|prior>-s<index>``, seeded per index (paired)."""
-    common = {k: config[k] for k in _RUN_FIELDS}
-    return make_specs(config.seed, (
-        (f"{f}-{'prior' if p else 'none'}-s{i:03d}", {"filter": f, "prior": p, "seed_index": i, **common}, f"s{i:03d}")
-        for f in config["filters"] for p in (False, True) for i in range(config["n_seeds"])
-    ))
+    return paired_specs(config, "prior", _RUN_FIELDS)
 
 
 def execute(spec: RunSpec, workdir: Path) -> dict:

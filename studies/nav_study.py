@@ -345,3 +345,19 @@ def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tup
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=110)
     plt.close(fig)
+
+
+def paired_specs(config, arm: str, run_fields) -> list:
+    """Filters × {without, with ``arm``} × seeds, run ids ``<filter>-<none|arm>-s<index>``.
+
+    Both arms of one seed index share a seed key, so they see the same
+    measurements and initial guess (paired comparisons); ``run_fields`` are the
+    config fields copied into every run's parameters.
+    """
+    from studies.sweep import make_specs
+
+    common = {k: config[k] for k in run_fields}
+    return make_specs(config.seed, (
+        (f"{f}-{arm if on else 'none'}-s{i:03d}", {"filter": f, arm: on, "seed_index": i, **common}, f"s{i:03d}")
+        for f in config["filters"] for on in (False, True) for i in range(config["n_seeds"])
+    ))

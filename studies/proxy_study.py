@@ -34,11 +34,11 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, K_STATES, check_common, draw_prior, error_series, median_interval,
-    navigate, one_axis, paired_error_figure, record_navigation,
+    navigate, one_axis, paired_error_figure, paired_specs, record_navigation,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.stats import t_interval
-from studies.sweep import RunSpec, make_specs
+from studies.sweep import RunSpec
 from studies.tables import Table
 from studies.truth import simulate_truth
 
@@ -78,11 +78,7 @@ def check(params: dict) -> None:
 
 def expand(config: StudyConfig) -> list[RunSpec]:
     """Filters × {no proxy, proxy} × seeds; run ids ``<filter>-<none|proxy>-s<index>``, seeded per index (paired)."""
-    common = {k: config[k] for k in _RUN_FIELDS}
-    return make_specs(config.seed, (
-        (f"{f}-{'proxy' if p else 'none'}-s{i:03d}", {"filter": f, "proxy": p, "seed_index": i, **common}, f"s{i:03d}")
-        for f in config["filters"] for p in (False, True) for i in range(config["n_seeds"])
-    ))
+    return paired_specs(config, "proxy", _RUN_FIELDS)
 
 
 def _rms(x) -> float:
