@@ -148,6 +148,13 @@ class KalmanFilterBase:
             self._commit(x, P, f"update at t={t}")
         return decisions
 
+    def rescale(self, scale) -> None:
+        """``P ← D P D`` with ``D = diag(scale)``, ``scale ≥ 1``: inflate some error components, keeping correlations."""
+        scale = np.asarray(scale, dtype=float)
+        if scale.shape != (self.P.shape[0],) or not np.all(np.isfinite(scale)) or np.any(scale < 1.0):
+            raise ValueError(f"scale must be {self.P.shape[0]} finite numbers >= 1")
+        self._commit(self.x, scale[:, None] * self.P * scale[None, :], "covariance inflation")
+
     # -------------------------------------------------------------- helpers
 
     def _commit(self, x: np.ndarray, P: np.ndarray, what: str) -> None:

@@ -18,6 +18,7 @@ from estimators.gates import GateDecision
 from estimators.measurement import AttitudeMeasurement, PositionMeasurement
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, SpinPrior, rate_proxy
 from estimators.process_model import RelativeProcessModel
+from estimators.reacquisition import Reacquisition
 from estimators.tuning import Tuning
 from estimators.ukf import UnscentedKalmanFilter
 
@@ -42,7 +43,8 @@ class NavigationRun:
     ``nis[source]`` (N,) the normalised innovation squared ``e²`` of each
     camera source (NaN where it had no measurement), ``accepted[source]`` (N,)
     its gate decision, ``proxy_used`` (N,) whether the prior proxy was pushed,
-    ``decisions`` every gate decision in order.
+    ``decisions`` every gate decision in order, ``reacquisitions`` when a
+    locked-out source was re-acquired (:mod:`estimators.reacquisition`).
     """
 
     filter: str
@@ -53,6 +55,7 @@ class NavigationRun:
     accepted: dict
     proxy_used: np.ndarray
     decisions: tuple[GateDecision, ...]
+    reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
 
 
 def run_navigation(
@@ -72,6 +75,7 @@ def run_navigation(
     prior: SpinPrior | None = None,
     proxy: str | None = None,
     R_w: float = R_OMEGA_PROXY,
+    reacquire_window: int | None = 5,
     **filter_kwargs,
 ) -> NavigationRun:
     """Filter the pose measurements ``(t_meas, q_meas (M,4), r_meas (M,3))`` on the grid ``t`` (N,).
@@ -83,6 +87,10 @@ def run_navigation(
     ``proxy``: ``None``, ``"always"`` or ``"on_reject"`` (needs ``prior``).
     ``gate_start_s``: the gates test measurements from this time on (s since
     ``t[0]``); before it every measurement is used (acquisition from ``x̂_0``).
+    ``reacquire_window``: after this many rejections in a row of a camera
+    source whose innovations lie on a line, the filter is re-acquired from
+    them (:mod:`estimators.reacquisition`); ``None`` turns this off (the
+    paper's filters, which a long blackout can lock out for good).
     """
     t = np.asarray(t, dtype=float)
     servicer = np.asarray(servicer, dtype=float)
@@ -119,9 +127,11 @@ def run_navigation(
     nis = {s: np.full(n, np.nan) for s in SOURCES}
     accepted = {s: np.zeros(n, dtype=bool) for s in SOURCES}
     proxy_used = np.zeros(n, dtype=bool)
+    reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
     for k in range(1, n):
         filt.predict(servicer[k - 1], tau)
+        x_prior = filt.x
         parts = []
         if k in meas_at:
             i = meas_at[k]
@@ -136,9 +146,16 @@ def run_navigation(
                 y, S = filt.innovations[s]
                 nis[s][k] = verdict[s].e2 if s in verdict else float(y @ np.linalg.solve(S, y))
                 accepted[s][k] = verdict[s].accepted if s in verdict else True
+            if reacq is not None and gate:
+                innovations = dict(filt.innovations)
+                for src in (att, pos):
+                    reacq.step(filt, src, accepted[src.name][k], t[k], innovations[src.name][0], x_prior)
         proxy_used[k] = proxy == "always"
         if proxy == "on_reject" and not all(accepted[s][k] for s in SOURCES):
             filt.update([rate_proxy(prior, servicer[k], R_w)], t=t[k])
             proxy_used[k] = True
         xs[k], Ps[k] = filt.x, filt.P
-    return NavigationRun(filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, decisions=tuple(filt.gate_decisions))
+    return NavigationRun(
+        filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used,
+        decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
+    )

@@ -75,6 +75,7 @@ def navigate(
     noise: str = "isotropic",
     gate_confidence: float | None = 0.99,
     gate_start_s: float = 10.0,
+    reacquire_window: int | None = 5,
     consider=(),
     inertia_range=(0.7, 1.3),
     meas=None,
@@ -87,7 +88,8 @@ def navigate(
     both. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
     from the prior, §6.2; ``P0_w_prior`` overrides that block's variance) or
     ``"proxy"`` (also initialises, and pushes the prior as a ``ω`` measurement
-    per ``proxy_mode``, §6.3).
+    per ``proxy_mode``, §6.3). ``reacquire_window``: see
+    :func:`estimators.navigation.run_navigation` (``None``: no re-acquisition).
     """
     if meas is None:
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=sigma_q_rad,
@@ -104,6 +106,7 @@ def navigate(
         filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
         gate_confidence=gate_confidence, gate_start_s=gate_start_s, prior=prior,
         proxy=proxy_mode if prior_use == "proxy" else None, R_w=R_w, consider=consider,
+        reacquire_window=reacquire_window,
     )
     return run, meas
 
@@ -169,6 +172,9 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
             if not d.accepted:
                 set_sim_time(rec, d.t)
                 rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
+        for t_re, source in run.reacquisitions:
+            set_sim_time(rec, t_re)
+            rec.log(f"/gate/{f}/log", rr.TextLog(f"{source} re-acquired from its last rejected innovations (estimators.reacquisition)", level="INFO"))
         if run.proxy_used.any():
             send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
         for entity, (te, values) in (extra_scalars or {}).items():

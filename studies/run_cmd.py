@@ -113,6 +113,7 @@ def run(
     noise: str = typer.Option("isotropic", help=f"Pose noise model: {'|'.join(NOISE_MODELS)}."),
     gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates)."),
     gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before)."),
+    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters)."),
     measurements: Optional[Path] = typer.Option(None, help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating."),
     out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd."),
 ) -> None:
@@ -128,6 +129,8 @@ def run(
         raise ValueError(f"--dt ({dt} s) must not exceed --duration ({duration} s)")
     if prior not in PRIOR_USES:
         raise ValueError(f"--prior must be one of {'|'.join(PRIOR_USES)}, got {prior!r}")
+    if reacquire_window != 0 and reacquire_window < 3:
+        raise ValueError(f"--reacquire-window must be 0 (off) or at least 3 measurements, got {reacquire_window}")
     if proxy_mode not in PROXY_MODES:
         raise ValueError(f"--proxy-mode must be one of {'|'.join(PROXY_MODES)}, got {proxy_mode!r}")
     if not (math.isfinite(prior_error) and prior_error > 0):
@@ -184,7 +187,8 @@ def run(
     for i in range(runs):
         rng = np.random.default_rng(seed + i)
         run_i, meas_i = navigate(tr, filter_, tun, rng, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, noise=noise,
-                                 gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, meas=meas)
+                                 gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, meas=meas,
+                                 reacquire_window=reacquire_window or None)
         results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
     states = np.arange(12) if consider else np.arange(14)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
@@ -207,10 +211,12 @@ def run(
         },
         "nees": {"dof": int(len(states)), "from_s": float(nees_from), "band_95": [lo, hi], "runs": runs},
         "nis_fraction_in_95": {s: _num(fraction_in_band(np.array([r.nis[s][sel] for r, _, _ in results]), 3)) for s in SOURCES},
+        "reacquisitions": [[t_re, source] for t_re, source in first.reacquisitions],
         "gate_rejection_rate": {s: _num(float(np.mean([np.mean(~r.accepted[s][np.isfinite(r.nis[s])]) for r, _, _ in results]))) for s in SOURCES},
         "config": {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
                    "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise,
                    "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
+                   "reacquire_window": reacquire_window or None,
                    "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()},
     }
 

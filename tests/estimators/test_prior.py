@@ -81,10 +81,10 @@ def test_proxy_measures_the_target_rate(truth, rng):
     assert np.allclose(quat_to_dcm(x[0:4]) @ tr.servicer[7, 10:13] - x[4:7], tr.target[7, 10:13])
 
 
-def _blackout(truth, name, proxy):
+def _blackout(truth, name, proxy, seed=1, reacquire_window=5):
     """SC1, 240 s at τ_s = 1 s, fault 60–180 s on both parts, prior (+5 %) as initial condition."""
     tr = truth("SC1", 240.0)
-    m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(1), tau_s=1.0, faults=[(60.0, 120.0)])
+    m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(seed), tau_s=1.0, faults=[(60.0, 120.0)])
     prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
     tun = get_tuning("sc1")
     x0 = np.zeros(15)
@@ -92,22 +92,50 @@ def _blackout(truth, name, proxy):
     x0[13:] = [1.466 * 1.1, -1.439 * 0.9]
     x0, P0 = initialize_with_prior(x0, tun.P_0, prior, tr.servicer[0])
     run = run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, P0=P0, tuning=tun,
-                         gate_confidence=0.99, gate_start_s=10.0, prior=prior, proxy=proxy, consider=(12, 13))
+                         gate_confidence=0.99, gate_start_s=10.0, prior=prior, proxy=proxy, consider=(12, 13),
+                         reacquire_window=reacquire_window)
     e = state_errors(run.x, tr.x)
     fault = (tr.t >= 60.0) & (tr.t < 180.0)
-    after = tr.t >= 180.0
     w_rms = float(np.sqrt(np.mean(e["w"][fault] ** 2)))
-    reconv = {g: convergence_time(tr.t[after], e[g][after], DEFAULT_THRESHOLDS[g]) for g in ("q", "w", "r", "v")}
-    return w_rms, reconv, run
+    return w_rms, e, run
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name,groups", [("ekf", ("q", "w", "r", "v")), ("ukf", ("q", "w"))])
-def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name, groups):
-    w_none, _, _ = _blackout(truth, name, None)
-    w_proxy, reconv, run = _blackout(truth, name, "on_reject")
-    print(f"{name}: rms ω error over the fault {w_proxy:.4f} rad/s with the proxy, {w_none:.4f} without; reconvergence after the fault (s) {reconv}")
-    assert w_proxy < w_none
-    assert run.proxy_used[(run.t >= 60) & (run.t < 180)].mean() > 0.9  # pushed while the camera is rejected
-    for g in groups:
-        assert reconv[g] <= 30.0, (g, reconv)
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name):
+    """§6.3 of ``002_…``: a 120 s fault on both parts, seeds 1–5.
+
+    Reconverged within 30 s of the end of the fault means: ``ω``, ``r`` and
+    ``v`` are back below the §6 thresholds (2 deg/s, 1 m, 0.1 m/s) by 30 s and
+    stay there, and the attitude error over the rest of the run (the paper's
+    Table 6 window, after a 30 s settling) is no more than twice the one of the
+    30 s before the fault. The attitude is judged against its own pre-fault
+    level because its steady-state error (1–2°, from σ_q = 0.12 rad) lies
+    around the 2° threshold, so "stays below 2°" is a coin toss with or
+    without a fault.
+    """
+    t = truth("SC1", 240.0).t
+    before, settled, after = (t >= 30.0) & (t < 60.0), t >= 210.0, t >= 180.0
+    for seed in range(1, 6):
+        w_none, _, _ = _blackout(truth, name, None, seed)
+        w_proxy, e, run = _blackout(truth, name, "on_reject", seed)
+        reconv = {g: convergence_time(t[after], e[g][after], DEFAULT_THRESHOLDS[g]) for g in ("w", "r", "v")}
+        q_ratio = np.sqrt(np.mean(e["q"][settled] ** 2) / np.mean(e["q"][before] ** 2))
+        print(f"{name} seed {seed}: rms ω error over the fault {w_proxy:.4f} rad/s with the proxy, {w_none:.4f} without; "
+              f"reconvergence after the fault (s) {reconv}, attitude rms settled/before {q_ratio:.2f}, re-acquisitions {run.reacquisitions}")
+        assert w_proxy < w_none
+        assert run.proxy_used[(run.t >= 60) & (run.t < 180)].mean() > 0.9  # pushed while the camera is rejected
+        for g, tc in reconv.items():
+            assert tc <= 30.0, (seed, g, reconv)
+        assert q_ratio <= 2.0, (seed, q_ratio)
+        # heavy fault noise never looks like a lost filter: no re-acquisition inside the fault
+        assert not [ev for ev in run.reacquisitions if 60.0 <= ev[0] < 180.0]
+
+
+@pytest.mark.slow
+def test_without_reacquisition_the_gate_locks_the_ukf_out(truth):
+    """The paper's rule alone (§4.3 of ``002_…``): after the blackout every good position is rejected."""
+    _, e, run = _blackout(truth, "ukf", "on_reject", 1, reacquire_window=None)
+    after = run.t >= 180.0
+    assert not run.accepted["position"][after].any()
+    assert e["r"][-1] > 10.0
