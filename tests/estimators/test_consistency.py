@@ -29,8 +29,9 @@ EKF 100, 100, 100, 100, 64, 100 | 100, 70, 100, 91, 77, 100 %; UKF 100, 100,
 100, 100, 74, 100 | 100, 99, 100, 68, 92, 100 %. The mean NEES/dof of the
 filters is within 0.08 of the exact filter's on every set. With ten times
 larger initial errors (1.6e-3 rad/s on the rate) both filters are
-over-confident in some runs (mean NEES/dof up to 1.26 for the EKF, 1.13 for
-the UKF, against 0.79–1.01 for the exact filter on the same draws): a rate
+over-confident in some runs (mean NEES/dof 1.07–1.42 for the EKF, 0.96–1.29
+for the UKF on the six sets, against 0.89–1.06 for the exact filter on the
+same draws): a rate
 error along the spin axis reaches the positions only through second-order
 terms (README, "Known limitations").
 """
