@@ -35,7 +35,7 @@ from estimators.error_state import boxminus, boxplus, state_to_error_jacobians
 
 @numba.njit(cache=True)
 def _skew(u):
-    return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.array(((0.0, -u[2], u[1]), (u[2], 0.0, -u[0]), (-u[1], u[0], 0.0)))  # tuples: see quat_to_dcm_nb
 
 
 @numba.njit(cache=True)
@@ -89,7 +89,7 @@ def _jac(z, J_S, mu):
     c0 = (1.0 - em2) / e1
     c1 = em2 - e1
     c2 = (e1 - 1.0) / em2
-    E = np.array([[0.0, c0 * w_T[2], c0 * w_T[1]], [c1 * w_T[2], 0.0, c1 * w_T[0]], [c2 * w_T[1], c2 * w_T[0], 0.0]])
+    E = np.array(((0.0, c0 * w_T[2], c0 * w_T[1]), (c1 * w_T[2], 0.0, c1 * w_T[0]), (c2 * w_T[1], c2 * w_T[0], 0.0)))
     p01 = w_T[1] * w_T[2]
     p20 = w_T[2] * w_T[0]
     p01b = w_T[0] * w_T[1]
