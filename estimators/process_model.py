@@ -24,6 +24,7 @@ dominate).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numba
@@ -160,6 +161,20 @@ def _rk4_stm(x0, s0, J_S, mu, dt, n_steps):
     return z[:15].copy(), z[15:].copy(), Phi
 
 
+@numba.njit(cache=True)
+def _rk4_error_state(x0, s0, J_S, mu, dt, n_steps):
+    """``(f(x0), F)``: :func:`_rk4_stm`, the quaternion normalised (eq. 28), ``F = G_out Φ G_in`` (eq. 25).
+
+    One compiled call for the EKF's prediction of the state and its Jacobian
+    (the last two steps cost ~30 µs as numpy calls).
+    """
+    x1, _, Phi = _rk4_stm(x0, s0, J_S, mu, dt, n_steps)
+    q = x1[0:4]
+    x1[0:4] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    G_in, G_out = state_to_error_jacobians(x0, x1)
+    return x1, G_out @ Phi @ G_in
+
+
 def relative_jacobian(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
     """Continuous Jacobian ``∂ẋ/∂x`` (15×15) of eq. 21 (the servicer's state is an input)."""
     z = np.concatenate([np.asarray(x, dtype=float), np.asarray(servicer, dtype=float)])
@@ -200,10 +215,11 @@ class RelativeProcessModel:
 
     def _steps(self, dt: float) -> tuple[float, int]:
         """``(h, n)``: RK4 step and count covering ``dt``."""
-        if not (np.isfinite(dt) and dt > 0):
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be positive and finite, got {dt!r}")
-        n = max(1, int(np.ceil(dt / self.max_step_s - 1e-9)))
-        return float(dt) / n, n
+        n = max(1, math.ceil(dt / self.max_step_s - 1e-9))
+        return dt / n, n
 
     @staticmethod
     def _normalized(x: np.ndarray) -> np.ndarray:
@@ -224,12 +240,8 @@ class RelativeProcessModel:
 
     def propagate_with_jacobian(self, x, servicer, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(f(x), F)`` with ``F = ∂(f(x ⊞ δx) ⊟ f(x))/∂δx`` (14×14) at ``δx = 0`` (eq. 25)."""
-        x = np.asarray(x, dtype=float)
         h, n = self._steps(dt)
-        x1, _, Phi = _rk4_stm(x, np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), h, n)
-        x1 = self._normalized(x1)
-        G_in, G_out = state_to_error_jacobians(x, x1)
-        return x1, G_out @ Phi @ G_in
+        return _rk4_error_state(np.asarray(x, dtype=float), np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), h, n)
 
 
 @dataclass(frozen=True)
