@@ -31,6 +31,16 @@ from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
 
 
 @numba.njit(cache=True)
+def _sandwich(A, P, Q):
+    """``A P Aᵀ + Q``, symmetrised: ``P⁻ = F P Fᵀ + Q_d`` (eq. 26) and ``S = H P⁻ Hᵀ + R_d`` (eq. 27).
+
+    One compiled call instead of four or five numpy calls (~2 µs against ~6 µs).
+    """
+    M = A @ P @ A.T + Q
+    return 0.5 * (M + M.T)
+
+
+@numba.njit(cache=True)
 def _joseph_update(P, H, R, y, consider):
     """``(δx, P⁺)`` of the Kalman update (eq. 27) with the Joseph form of the covariance.
 
@@ -60,7 +70,7 @@ class ExtendedKalmanFilter(KalmanFilterBase):
         x, F = self.model.propagate_with_jacobian(self.x, u, dt)  # eqs 25-26
         if not (np.isfinite(x).all() and np.isfinite(F).all()):
             raise NonFiniteError(f"ekf: propagating over dt={dt} gave NaN or Inf; step refused")
-        return x, F @ self.P @ F.T + self.Q
+        return x, _sandwich(np.ascontiguousarray(F), self.P, self.Q)  # any model's F (numba's @ warns on strided arrays)
 
     def _R_d(self, sources) -> np.ndarray:
         """``R_d`` of ``sources``, block-diagonal; reused while they are the same objects as at the last update."""
@@ -75,8 +85,7 @@ class ExtendedKalmanFilter(KalmanFilterBase):
         self._R = self._R_d(sources)
         h = np.concatenate([src.h_chart(self.x, self.x) for src in sources])
         self._y = np.concatenate(z) - h
-        S = self._H @ self.P @ self._H.T + self._R
-        return self._y, 0.5 * (S + S.T)
+        return self._y, _sandwich(self._H, self.P, self._R)
 
     def _correct(self, keep: np.ndarray):
         if keep.all():

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from estimators.dynamics import MU_EARTH, cross3, joint_rhs, quat_to_dcm_nb, propagate_relative, propagate_relative_batch
+from estimators.dynamics import MU_EARTH, cross3, joint_rhs, mat_mat, mat_vec, quat_to_dcm_nb, propagate_relative, propagate_relative_batch
 from estimators.error_state import boxminus, boxplus, state_to_error_jacobians
 
 
@@ -83,7 +83,7 @@ def _jac(z, J_S, mu):
     R = quat_to_dcm_nb(q)
     R_IS = quat_to_dcm_nb(q_IS)
     dw_S = -cross3(w_S, J_S * w_S) / J_S
-    w_S_T = R @ w_S
+    w_S_T = mat_vec(R, w_S)
     w_T = w_S_T - w
     dw_T = -cross3(w_T, JT * w_T) / JT
     # Euler: ω̇0 = c0 ω1 ω2, ω̇1 = c1 ω2 ω0, ω̇2 = c2 ω0 ω1 with J = diag(e^k1, 1, e^-k2)
@@ -112,14 +112,14 @@ def _jac(z, J_S, mu):
 
     dRwS = _dRu(q, w_S)
     # relative angular acceleration (eq. 7)
-    A[4:7, 0:4] = _skew(w) @ dRwS + _dRu(q, dw_S) - E @ dRwS
+    A[4:7, 0:4] = mat_mat(_skew(w), dRwS) + _dRu(q, dw_S) - mat_mat(E, dRwS)
     A[4:7, 4:7] = -_skew(w_S_T) + E
     A[4:7, 13:15] = -Dk
 
     # translation (eqs 8-15)
     A[7:10, 10:13] = np.eye(3)
-    p = R_IS.T @ r_SI
-    r_S_T = R @ p
+    p = mat_vec(R_IS.T, r_SI)
+    r_S_T = mat_vec(R, p)
     r_T_T = r_S_T - r
     rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
     rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
@@ -127,13 +127,13 @@ def _jac(z, J_S, mu):
     dRp = _dRu(q, p)
     wr = w_T[0] * r[0] + w_T[1] * r[1] + w_T[2] * r[2]
     # total ∂a/∂ω_T, including the path through ω̇_T
-    M = 2.0 * _skew(v) + _skew(r) @ E - wr * np.eye(3) - np.outer(w_T, r) + 2.0 * np.outer(r, w_T)
-    A[10:13, 0:4] = (-mu / rs**3) * dRp + G @ dRp + M @ dRwS
+    M = 2.0 * _skew(v) + mat_mat(_skew(r), E) - wr * np.eye(3) - np.outer(w_T, r) + 2.0 * np.outer(r, w_T)
+    A[10:13, 0:4] = (-mu / rs**3) * dRp + mat_mat(G, dRp) + mat_mat(M, dRwS)
     A[10:13, 4:7] = -M
     Sw = _skew(w_T)
-    A[10:13, 7:10] = -G - _skew(dw_T) - Sw @ Sw
+    A[10:13, 7:10] = -G - _skew(dw_T) - mat_mat(Sw, Sw)
     A[10:13, 10:13] = -2.0 * Sw
-    A[10:13, 13:15] = _skew(r) @ Dk
+    A[10:13, 13:15] = mat_mat(_skew(r), Dk)
     return A
 
 
