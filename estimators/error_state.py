@@ -39,28 +39,25 @@ ERROR_SLICES = {
 }
 
 
-def _rows(a: np.ndarray, lead: tuple) -> np.ndarray:
-    """``a (..., n)`` as an ``(N, n)`` row array over the leading shape ``lead``; one row if ``a`` has none."""
-    if a.ndim == 1:
-        return a[None, :]
+def _as_rows(a: np.ndarray, lead: tuple) -> np.ndarray:
+    """``a (..., n)`` broadcast to ``lead + (n,)`` and flattened to ``(N, n)`` rows."""
     if a.shape[:-1] != lead:
         a = np.broadcast_to(a, lead + a.shape[-1:])
     return a.reshape(-1, a.shape[-1])
 
 
 def _paired_rows(a: np.ndarray, b: np.ndarray) -> tuple[tuple, np.ndarray, np.ndarray]:
-    """Leading shape of ``a`` and ``b`` broadcast together, and both as row arrays for the kernels below.
+    """``(lead, a_rows, b_rows)`` for the kernels below: the leading shape of ``a`` and ``b`` broadcast together,
+    ``a`` as ``(N, n)`` rows, ``b`` as ``(N, m)`` rows or, when it is a single vector, one row (reused for all).
 
     The common cases (same leading shape, or ``b`` a single vector) skip
     ``np.broadcast_shapes``, which alone costs as much as a kernel call.
     """
     if b.ndim == 1 or a.shape[:-1] == b.shape[:-1]:
         lead = a.shape[:-1]
-    elif a.ndim == 1:
-        lead = b.shape[:-1]
     else:
         lead = np.broadcast_shapes(a.shape[:-1], b.shape[:-1])
-    return lead, _rows(a, lead), _rows(b, lead)
+    return lead, _as_rows(a, lead), (b[None, :] if b.ndim == 1 else _as_rows(b, lead))
 
 
 # The two charts below are compiled: on one quaternion the composition of the
