@@ -24,40 +24,76 @@ multiplicative attitude update. The update uses the Joseph form, as filterpy doe
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
+
+
+@numba.njit(cache=True)
+def _sandwich(A, P, Q):
+    """``A P Aᵀ + Q``, symmetrised: ``P⁻ = F P Fᵀ + Q_d`` (eq. 26) and ``S = H P⁻ Hᵀ + R_d`` (eq. 27).
+
+    One compiled call instead of four or five numpy calls (~2 µs against ~6 µs).
+    """
+    M = A @ P @ A.T + Q
+    return 0.5 * (M + M.T)
+
+
+@numba.njit(cache=True)
+def _joseph_update(P, H, R, y, consider):
+    """``(δx, P⁺)`` of the Kalman update (eq. 27) with the Joseph form of the covariance.
+
+    ``S = H P Hᵀ + R``, ``K = P Hᵀ S⁻¹`` with the rows of the ``consider``
+    states zeroed (Schmidt–Kalman: they are not corrected), ``δx = K y``,
+    ``P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`` (valid for any gain, as in
+    filterpy). Compiled: the same dozen operations as numpy calls on 14×14
+    and 6×6 arrays cost ~30 µs, mostly per-call overhead; this kernel ~7 µs.
+    """
+    PHt = P @ H.T
+    S = H @ PHt + R
+    K = np.linalg.solve(S, PHt.T).T  # S symmetric
+    for i in consider:
+        K[i, :] = 0.0
+    IKH = np.eye(P.shape[0]) - K @ H
+    return K @ y, IKH @ P @ IKH.T + K @ R @ K.T
 
 
 class ExtendedKalmanFilter(KalmanFilterBase):
     """EKF with the interface of :class:`~estimators.filter.KalmanFilterBase`."""
 
     kind = "ekf"
+    #: the sources of the last update and their ``R_d`` (each source's ``R`` is fixed at its construction)
+    _R_cache: tuple = ((), None)
 
     def _predict(self, u, dt: float):
         x, F = self.model.propagate_with_jacobian(self.x, u, dt)  # eqs 25-26
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(F))):
+        if not (np.isfinite(x).all() and np.isfinite(F).all()):
             raise NonFiniteError(f"ekf: propagating over dt={dt} gave NaN or Inf; step refused")
-        return x, F @ self.P @ F.T + self.Q
+        return x, _sandwich(np.ascontiguousarray(F), self.P, self.Q)  # any model's F (numba's @ warns on strided arrays)
+
+    def _R_d(self, sources) -> np.ndarray:
+        """``R_d`` of ``sources``, block-diagonal; reused while they are the same objects as at the last update."""
+        cached, R = self._R_cache
+        if len(cached) != len(sources) or any(a is not b for a, b in zip(cached, sources)):
+            R = _block_diag([src.R for src in sources])
+            self._R_cache = (tuple(sources), R)
+        return R
 
     def _innovate(self, sources, z):
         self._H = np.vstack([src.jacobian(self.x) for src in sources])
-        self._R = _block_diag([src.R for src in sources])
+        self._R = self._R_d(sources)
         h = np.concatenate([src.h_chart(self.x, self.x) for src in sources])
         self._y = np.concatenate(z) - h
-        S = self._H @ self.P @ self._H.T + self._R
-        return self._y, 0.5 * (S + S.T)
+        return self._y, _sandwich(self._H, self.P, self._R)
 
     def _correct(self, keep: np.ndarray):
-        H, R, y = self._H[keep], self._R[np.ix_(keep, keep)], self._y[keep]
-        PHt = self.P @ H.T
-        S = H @ PHt + R
+        if keep.all():
+            H, R, y = self._H, self._R, self._y
+        else:
+            H, R, y = self._H[keep], self._R[np.ix_(keep, keep)], self._y[keep]
         try:
-            K = np.linalg.solve(S, PHt.T).T  # K = P Hᵀ S⁻¹ (S symmetric)
+            dx, P = _joseph_update(self.P, H, R, y, self.consider)
         except np.linalg.LinAlgError as e:
             raise ValueError("ekf: innovation covariance S is singular") from e
-        K[self.consider] = 0.0  # Schmidt-Kalman: considered states are not corrected
-        x = self.model.boxplus(self.x, K @ y)
-        IKH = np.eye(self.P.shape[0]) - K @ H
-        P = IKH @ self.P @ IKH.T + K @ R @ K.T  # Joseph form of P = (I − K H) P⁻, valid for any gain
-        return x, P
+        return self.model.boxplus(self.x, dx), P

@@ -17,22 +17,66 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+import numba
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 from scipy.stats import chi2
+
+_NIS_OK, _NIS_NOT_FINITE, _NIS_NOT_PD = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def _nis_cholesky(v, S):
+    """``(e², status)`` with ``e² = vᵀ S⁻¹ v = |U⁻ᵀ v|²`` and ``S = Uᵀ U`` (Cholesky, upper triangle of ``S``).
+
+    ``U`` row by row, each row followed by its step of the forward
+    substitution ``Uᵀ w = v``. Status ``_NIS_NOT_FINITE`` if ``v`` or ``S``
+    holds NaN/Inf, ``_NIS_NOT_PD`` if a pivot is not positive (LAPACK's
+    ``potrf`` test). Replaces scipy's ``cho_factor``/``cho_solve``, whose
+    wrappers cost ~35 µs on a 3×3 ``S`` (this, with its wrapper: ~2 µs); the
+    EKF gates two sources per step.
+    """
+    m = v.shape[0]
+    for i in range(m):
+        if not np.isfinite(v[i]):
+            return np.nan, _NIS_NOT_FINITE
+        for j in range(m):
+            if not np.isfinite(S[i, j]):
+                return np.nan, _NIS_NOT_FINITE
+    U = np.zeros((m, m))
+    w = np.empty(m)
+    e2 = 0.0
+    for j in range(m):
+        d = S[j, j]
+        for k in range(j):
+            d -= U[k, j] * U[k, j]
+        if not d > 0.0:
+            return np.nan, _NIS_NOT_PD
+        U[j, j] = np.sqrt(d)
+        for i in range(j + 1, m):
+            u = S[j, i]
+            for k in range(j):
+                u -= U[k, j] * U[k, i]
+            U[j, i] = u / U[j, j]
+        u = v[j]
+        for k in range(j):
+            u -= U[k, j] * w[k]
+        w[j] = u / U[j, j]
+        e2 += w[j] * w[j]
+    return e2, _NIS_OK
 
 
 def normalized_innovation_squared(v, S) -> float:
     """``e² = vᵀ S⁻¹ v`` by a Cholesky solve; raises if ``S`` is not positive definite."""
-    v = np.asarray(v, dtype=float)
-    S = np.asarray(S, dtype=float)
-    if not np.all(np.isfinite(v)) or not np.all(np.isfinite(S)):
+    v = np.atleast_1d(np.asarray(v, dtype=float))
+    S = np.atleast_2d(np.asarray(S, dtype=float))
+    if v.ndim != 1 or S.shape != (v.size, v.size):
+        raise ValueError(f"innovation must be (m,) and its covariance (m, m), got {v.shape} and {S.shape}")
+    e2, status = _nis_cholesky(v, S)
+    if status == _NIS_NOT_FINITE:
         raise ValueError("innovation and its covariance must be finite")
-    try:
-        c = cho_factor(S)
-    except np.linalg.LinAlgError as e:
-        raise ValueError("innovation covariance S is not positive definite") from e
-    return float(v @ cho_solve(c, v))
+    if status == _NIS_NOT_PD:
+        raise ValueError("innovation covariance S is not positive definite")
+    return e2
 
 
 @lru_cache(maxsize=256)  # chi2.ppf costs ~0.3 ms, about half an EKF step; gates ask the same few

@@ -42,9 +42,21 @@ def _finite(z, shape, name: str) -> np.ndarray:
     z = np.asarray(z, dtype=float)
     if z.shape != shape:
         raise ValueError(f"measurement {name} must have shape {shape}, got {z.shape}")
-    if not np.all(np.isfinite(z)):
+    if not np.isfinite(z).all():
         raise ValueError(f"measurement {name} contains NaN or Inf: {z!r}")
     return z
+
+
+def _selection(first: int) -> np.ndarray:
+    """``H = [0 … I₃ … 0]`` (3 × 14) picking the error states ``first … first + 2``; read-only, built once."""
+    H = np.zeros((3, N_ERROR))
+    H[:, first : first + 3] = np.eye(3)
+    H.setflags(write=False)
+    return H
+
+
+_H_ATTITUDE = _selection(0)
+_H_POSITION = _selection(6)
 
 
 @dataclass(frozen=True)
@@ -69,9 +81,7 @@ class AttitudeMeasurement:
         return attitude_error(np.asarray(X)[..., 0:4], np.asarray(x_ref)[0:4])
 
     def jacobian(self, x) -> np.ndarray:
-        H = np.zeros((3, N_ERROR))
-        H[:, 0:3] = np.eye(3)
-        return H
+        return _H_ATTITUDE
 
 
 @dataclass(frozen=True)
@@ -93,9 +103,7 @@ class PositionMeasurement:
         return np.asarray(X)[..., 7:10]
 
     def jacobian(self, x) -> np.ndarray:
-        H = np.zeros((3, N_ERROR))
-        H[:, 6:9] = np.eye(3)
-        return H
+        return _H_POSITION
 
 
 @dataclass(frozen=True)
