@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.attitude import quat_to_dcm, skew
-from estimators.error_state import N_ERROR, N_STATE, attitude_error, boxminus
+from estimators.error_state import N_ERROR, attitude_error
 
 
 def _cov(R, m: int, name: str) -> np.ndarray:
@@ -139,41 +139,6 @@ class TargetRateMeasurement:
         H[:, 0:3] = -skew(quat_to_dcm(np.asarray(x)[0:4]) @ self.w_S_S)
         H[:, 3:6] = -np.eye(3)
         return H
-
-
-@dataclass(frozen=True)
-class StateFix:
-    """A direct fix of some error-state components: ``z`` is a full state ``x_fix`` (15,).
-
-    ``h(x) = (x ⊟ x_ref)[idx]``, ``H`` = the rows ``idx`` of ``I₁₄``. Used to
-    re-acquire a filter from a least-squares fit of its rejected innovations
-    (:mod:`estimators.reacquisition`); not gated.
-    """
-
-    idx: np.ndarray  #: error-state indices fixed
-    R: np.ndarray  #: (len(idx), len(idx)) covariance of the fix
-    name: str = "state_fix"
-    gated: bool = False
-
-    def __post_init__(self):
-        idx = np.asarray(self.idx, dtype=int)
-        if idx.ndim != 1 or idx.size == 0 or idx.min() < 0 or idx.max() >= N_ERROR or len(set(idx.tolist())) != idx.size:
-            raise ValueError(f"{self.name}: idx must be distinct error-state indices in [0, {N_ERROR}), got {self.idx!r}")
-        object.__setattr__(self, "idx", idx)
-        object.__setattr__(self, "R", _cov(self.R, idx.size, self.name))
-
-    @property
-    def dim(self) -> int:
-        return self.idx.size
-
-    def z_chart(self, z, x_ref) -> np.ndarray:
-        return boxminus(_finite(z, (N_STATE,), self.name), x_ref)[self.idx]
-
-    def h_chart(self, X, x_ref) -> np.ndarray:
-        return boxminus(X, x_ref)[..., self.idx]
-
-    def jacobian(self, x) -> np.ndarray:
-        return np.eye(N_ERROR)[self.idx]
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ measurements):
    (a congruence: ``P`` stays positive definite, correlations are kept); a
    drift that is only fit noise leaves its block as it was. Then the offset,
    ``x_fix = x̂⁻_K ⊞ b``, is applied ungated as a measurement of the block
-   (:class:`~estimators.measurement.StateFix`, covariance ``C_bb``). The
+   (``fix_components`` of the filter, covariance ``C_bb``). The
    drift is not applied: from 5 attitude samples of ``σ_q = 0.12`` rad its
    noise is 0.02 rad/s per axis, and applying it doubled the rate error
    after re-acquisition in one of ten EKF runs of the blackout (SC1, seeds
@@ -51,7 +51,6 @@ from scipy.optimize import brentq
 from scipy.stats import chi2
 
 from estimators.error_state import ERROR_SLICES, N_ERROR
-from estimators.measurement import StateFix
 
 #: Error-state blocks a camera source observes: its own and its rate.
 SOURCE_BLOCKS = {"attitude": ("q", "w"), "position": ("r", "v")}
@@ -149,7 +148,7 @@ class Reacquisition:
         dx[own] = fit.b
         x_fix = filt.model.boxplus(buf[-1][2], dx)
         filt.rescale(scale)
-        filt.update([(StateFix(own, fit.C[:m, :m], name=f"{source.name}_reacquired"), x_fix)], t=t, gate=False)
+        filt.fix_components(own, x_fix, fit.C[:m, :m])
         self.events.append((float(t), source.name))
         buf.clear()
         return True
