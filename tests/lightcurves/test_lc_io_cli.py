@@ -1,8 +1,6 @@
 """Light-curve files and the ``lcnav lightcurve`` commands, including every kind of bad input."""
 
 import json
-import sys
-from pathlib import Path
 
 import astropy.units as u
 import numpy as np
@@ -12,6 +10,7 @@ from astropy.time import Time
 from lightcurves import BadSeries
 from lightcurves.io import LightCurve, read_lightcurve, to_timeseries
 from studies.cli import main
+from tests.rerun_cli import assert_rrd_verifies
 
 
 def make_lc(n=200, rate_deg_s=4.0, seed=0):
@@ -66,7 +65,6 @@ def test_prior_command_json(tmp_path, capsys):
 
 
 def test_render_command_writes_ecsv_and_recording(tmp_path, capsys):
-    import subprocess
 
     out, rrd = tmp_path / "s.ecsv", tmp_path / "s.rrd"
     argv = ["lightcurve", "render", "--target", "sphere", "--albedo", "0.3", "--axis", "0,0,1", "--rate-deg-s", "5", "--duration", "40", "--cadence", "1", "--seed", "2", "--out", str(out), "--record", str(rrd), "--variant", "scalar_rgb", "--resolution", "16"]
@@ -75,9 +73,7 @@ def test_render_command_writes_ecsv_and_recording(tmp_path, capsys):
     assert len(lc) >= 20 and lc.meta["seed"] == 2 and lc.meta["renderer"]["variant"] == "scalar_rgb"
     # a sphere has no light curve beyond noise and the slow phase-angle trend
     assert np.std(lc.mag - np.polyval(np.polyfit(lc.t_s, lc.mag, 2), lc.t_s)) < 5 * np.median(lc.mag_err)
-    rerun = Path(sys.executable).with_name("rerun")
-    verify = subprocess.run([str(rerun), "rrd", "verify", str(rrd)], capture_output=True, text=True)
-    assert verify.returncode == 0, verify.stderr
+    assert_rrd_verifies(rrd)
 
 
 def _csv(path, rows):

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from studies.cli import main
+from tests.rerun_cli import assert_rrd_verifies
 
 
 def test_frames_writes_images_cloud_recording_and_json(tmp_path, capsys):
@@ -24,8 +22,7 @@ def test_frames_writes_images_cloud_recording_and_json(tmp_path, capsys):
         assert (out / name).is_file(), name
     table = pd.read_parquet(out / "cloud.parquet")
     assert len(table) == summary["points"] and (table["z_C_m"] < 0).all()
-    verify = subprocess.run([str(Path(sys.executable).parent / "rerun"), "rrd", "verify", str(out / "frames.rrd")], capture_output=True, text=True)
-    assert verify.returncode == 0, verify.stderr
+    assert_rrd_verifies(out / "frames.rrd")
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,5 @@
 """Checks every filter study's ``--quick`` run must pass (tuning, init, proxy): outputs, recordings, export."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -9,8 +7,8 @@ import pandas as pd
 
 from studies.cli import main
 from studies.inspect_cmd import TIME_COLUMN
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path(sys.executable).with_name("rerun")
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
@@ -37,8 +35,7 @@ def check_recordings(out: Path, runs: pd.DataFrame, tmp_path: Path, capsys) -> N
     """One run.rrd per run, all pass ``rerun rrd verify``; ``lcnav inspect --export`` gives one row per step."""
     rrds = [out / "runs" / rid / "run.rrd" for rid in runs["run_id"]]
     assert all(p.is_file() for p in rrds)
-    res = subprocess.run([str(RERUN), "rrd", "verify", *map(str, rrds)], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(*rrds)
     for row in (runs.iloc[0], runs.iloc[-1]):
         exp = tmp_path / f"{row['run_id']}.parquet"
         assert main(["inspect", str(out / "runs" / row["run_id"]), "--export", str(exp)]) == 0

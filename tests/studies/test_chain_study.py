@@ -1,7 +1,6 @@
 """``lcnav study chain --quick``: rendered light curve -> WindowCLEAN prior -> filters, with and without it."""
 
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -10,8 +9,8 @@ import pytest
 
 from studies.cli import main
 from studies.inspect_cmd import export_series
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path("/work/main/.venv/bin/rerun")
 ARMS = ("none", "tuning", "init")
 
 
@@ -40,8 +39,7 @@ def test_tables_figures_recordings_exist(chain_out):
 def test_every_recording_verifies(chain_out):
     rrds = sorted((chain_out / "runs").glob("*/*.rrd"))
     assert len(rrds) == 2 * 4
-    r = subprocess.run([str(RERUN), "rrd", "verify", *map(str, rrds)], capture_output=True, text=True, timeout=90)
-    assert r.returncode == 0, r.stderr
+    assert_rrd_verifies(*rrds)
 
 
 def test_inspect_export_has_one_row_per_step(chain_out, tmp_path):

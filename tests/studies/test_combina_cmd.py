@@ -1,16 +1,13 @@
 """`lcnav combina`: files, recording, and refusal of bad input."""
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from studies.cli import main
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
@@ -24,8 +21,7 @@ def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
     df = pd.read_parquet(out / "states.parquet")
     assert len(df) == 1 + int(0.25 * 963.65 * 0.33)
     assert {"t_s", "mode", "est_r_L_m_x", "sd_r_L_m_x", "true_r_L_m_x", "meas_scale", "accepted_translation"} <= set(df.columns)
-    res = subprocess.run([str(RERUN), "rrd", "verify", str(out / "combina.rrd")], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(out / "combina.rrd")
 
 
 @pytest.mark.parametrize(
@@ -61,5 +57,4 @@ def test_rendered_quick_runs_the_whole_chain(tmp_path):
     # registered positions within 1 m of the truth (the filter's 1-sigma at start is ~3.8 m)
     err = (rendered[[f"meas_r_L_m_{a}" for a in "xyz"]].to_numpy() - rendered[[f"true_r_L_m_{a}" for a in "xyz"]].to_numpy())
     assert (abs(err).max(axis=1) < 1.0).mean() >= 0.9
-    res = subprocess.run([str(RERUN), "rrd", "verify", str(out / "combina.rrd")], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(out / "combina.rrd")

@@ -6,16 +6,16 @@ Unlike ``quick_study_checks.check_recordings`` it accepts runs without a recordi
 whose filter broke down) and measurement epochs that are not whole seconds (0.33 Hz).
 """
 
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from quick_study_checks import PNG, RERUN, run_quick
+from quick_study_checks import PNG, run_quick
 from studies.cli import main
 from studies.combina_study import COMPONENTS
+from tests.rerun_cli import assert_rrd_verifies
 
 
 def assert_study_outputs(out: Path, figures: list[str], tmp_path: Path) -> pd.DataFrame:
@@ -28,8 +28,7 @@ def assert_study_outputs(out: Path, figures: list[str], tmp_path: Path) -> pd.Da
     runs = pd.read_parquet(out / "runs.parquet")
     rrds = sorted(out.glob("runs/*/run.rrd"))
     assert rrds, "no recording written"
-    res = subprocess.run([str(RERUN), "rrd", "verify", *map(str, rrds)], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(*rrds)
     # the recording holds every step: one exported row per measurement epoch (t = 0 included)
     run_id = rrds[0].parent.name
     export = tmp_path / f"{run_id}.parquet"

@@ -1,7 +1,6 @@
 """``lcnav demo --quick``: light curve -> WindowCLEAN prior -> EKF/UKF on SC3 with and without it."""
 
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -11,8 +10,8 @@ import pytest
 from lightcurves.io import read_lightcurve
 from studies.cli import main
 from studies.inspect_cmd import export_series
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path("/work/main/.venv/bin/rerun")
 RUNS = ("ekf", "ekf_prior", "ukf", "ukf_prior")
 
 
@@ -36,8 +35,7 @@ def test_every_recording_verifies(demo_out):
     rrds = sorted(demo_out.glob("*.rrd"))
     assert len(rrds) == 5
     for rrd in rrds:
-        r = subprocess.run([str(RERUN), "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60)
-        assert r.returncode == 0, (rrd, r.stderr)
+        assert_rrd_verifies(rrd)
 
 
 def test_prior_rate_within_3_percent_of_the_rendered_truth(demo_out):

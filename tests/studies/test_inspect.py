@@ -1,8 +1,5 @@
 """`lcnav inspect`: every recording verifies, the listing is right, and the export returns the run's data."""
 
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -12,15 +9,14 @@ from studies.cli import main
 from studies.inspect_cmd import TIME_COLUMN, export_series, summarize_recording
 from studies.truth import simulate_truth
 from studies.truth_study import perturbed_scenario
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def test_every_recording_passes_rerun_verify(quick_truth):
     rrds = sorted(quick_truth.glob("runs/*/run.rrd"))
     assert len(rrds) == len(pd.read_parquet(quick_truth / "runs.parquet"))
-    res = subprocess.run([str(RERUN), "rrd", "verify", *map(str, rrds)], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(*rrds)
 
 
 def test_export_returns_one_row_per_step_with_the_run_data(quick_truth, tmp_path, capsys):

@@ -1,9 +1,6 @@
 """`lcnav run`: the three outputs, their content, and one-line refusal of bad input with no output."""
 
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -11,8 +8,8 @@ import pytest
 
 from studies.cli import main
 from studies.scenarios import get_scenario
+from tests.rerun_cli import assert_rrd_verifies, rerun
 
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def test_run_writes_metrics_states_and_recording(tmp_path):
@@ -43,9 +40,8 @@ def test_run_writes_metrics_states_and_recording(tmp_path):
     if tc is not None:
         assert np.all(err_r[df["t_s"] >= tc] < 1.0)
         assert m["components"]["r"]["steady_state_rmse"] == pytest.approx(np.sqrt(np.mean(err_r[df["t_s"] >= tc] ** 2)))
-    res = subprocess.run([str(RERUN), "rrd", "verify", str(out / "run.rrd")], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
-    printed = subprocess.run([str(RERUN), "rrd", "print", str(out / "run.rrd")], capture_output=True, text=True).stdout
+    assert_rrd_verifies(out / "run.rrd")
+    printed = rerun("rrd", "print", out / "run.rrd").stdout
     for path in ["/truth/w_ST_T/z", "/estimate/ukf/r_ST_T/x", "/estimate/ukf/error/q_TS/x/plus3sigma", "/measurement/position/r_ST_T/y",
                  "/gate/ukf/attitude/e2", "/gate/ukf/position/upper", "/gate/ukf/log"]:
         assert path in printed, path

@@ -2,7 +2,6 @@
 
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,8 +9,8 @@ import pytest
 
 from studies.cli import main
 from studies.simulate_cmd import equivalent_box_half_sizes
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def test_simulate_writes_truth_table_and_recording(tmp_path):
@@ -26,8 +25,7 @@ def test_simulate_writes_truth_table_and_recording(tmp_path):
     # the servicer starts 50 m behind the target: range 50 m
     r = df[[f"r_ST_T_{a}_m" for a in "xyz"]].to_numpy()
     assert np.linalg.norm(r[0]) == pytest.approx(50.0, rel=1e-9)
-    res = subprocess.run([str(RERUN), "rrd", "verify", str(out / "truth.rrd")], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(out / "truth.rrd")
 
 
 @pytest.mark.parametrize(

@@ -1,8 +1,5 @@
 """Statistics (interval coverage), summary tables (files, Markdown) and the rerun blueprint layout."""
 
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,8 +11,8 @@ from studies.inspect_cmd import export_series
 from studies.recording import recording
 from studies.stats import bootstrap_interval, describe, proportion_interval, t_interval
 from studies.tables import Table, to_markdown, write_tables
+from tests.rerun_cli import assert_rrd_verifies
 
-RERUN = Path(sys.executable).with_name("rerun")
 
 
 def test_t_interval_has_its_nominal_coverage():
@@ -106,8 +103,7 @@ def test_blueprint_recording_verifies_and_holds_estimates_with_3sigma(tmp_path):
     with recording(path, recording_id="bp-test", blueprint=bp) as rec:
         send_truth(rec, "w_ST_T", t, truth)
         send_estimate(rec, "ekf", "w_ST_T", t, est, truth=truth, sigma=sigma)
-    res = subprocess.run([str(RERUN), "rrd", "verify", str(path)], capture_output=True, text=True)
-    assert res.returncode == 0, res.stderr
+    assert_rrd_verifies(path)
     reader = RrdReader(path)
     assert len(reader.blueprints()) == 1
     # the stored layout: views on truth vs estimate, errors ±3σ, gates, light curve, spectrum, cameras, clouds
