@@ -36,10 +36,30 @@ from studies.recording import send_scalars
 
 AXES = ("x", "y", "z")
 
+#: One hue per component, shared by truth, estimate and error, so a plot pairs them at a glance.
+COMPONENT_RGB = {"w": (110, 110, 110), "x": (215, 50, 45), "y": (35, 150, 60), "z": (40, 90, 215),
+                 "k1": (200, 120, 20), "k2": (130, 60, 190)}
+#: The ±3σ envelope: thin and grey, so it reads as a bound, not as data.
+SIGMA_RGBA = (140, 140, 140, 150)
+
+
+def _component_rgb(axis: str, index: int) -> tuple[int, int, int]:
+    palette = list(COMPONENT_RGB.values())
+    return COMPONENT_RGB.get(axis, palette[index % len(palette)])
+
+
+def style_series(rec, entity: str, name: str, rgba, *, width: float) -> None:
+    """Static line style of one scalar series: its colour (RGB or RGBA), width and legend name."""
+    import rerun as rr
+
+    rec.log(entity, rr.SeriesLines(colors=[tuple(rgba)], widths=[width], names=[name]), static=True)
+
 
 def send_truth(rec, quantity: str, t_s, values, axes: Sequence[str] = AXES) -> None:
     """``/truth/<quantity>/<axis>`` (``values`` of shape ``(N, len(axes))``, or ``(N,)`` for ``/truth/<quantity>``)."""
     send_scalars(rec, f"/truth/{quantity}", t_s, values, list(axes))
+    for j, a in enumerate(axes):  # wide and pale under the estimate, in the same hue
+        style_series(rec, f"/truth/{quantity}/{a}", f"truth {a}", (*_component_rgb(a, j), 110), width=4.0)
 
 
 def send_estimate(rec, filter_name: str, quantity: str, t_s, estimate, *, truth=None, sigma=None,
@@ -53,6 +73,8 @@ def send_estimate(rec, filter_name: str, quantity: str, t_s, estimate, *, truth=
     """
     est = np.atleast_2d(np.asarray(estimate, dtype=float).T).T
     send_scalars(rec, f"/estimate/{filter_name}/{quantity}", t_s, est, list(axes))
+    for j, a in enumerate(axes):
+        style_series(rec, f"/estimate/{filter_name}/{quantity}/{a}", f"{filter_name} {a}", _component_rgb(a, j), width=1.5)
     if truth is not None:
         send_error(rec, filter_name, quantity, t_s, est - np.atleast_2d(np.asarray(truth, dtype=float).T).T, sigma, axes)
 
@@ -63,10 +85,44 @@ def send_error(rec, filter_name: str, quantity: str, t_s, error, sigma=None, axe
     base = f"/estimate/{filter_name}/error/{quantity}"
     for j, a in enumerate(axes):
         send_scalars(rec, f"{base}/{a}/value", t_s, err[:, j])
+        style_series(rec, f"{base}/{a}/value", f"error {a}", _component_rgb(a, j), width=1.5)
         if sigma is not None:
             s3 = 3.0 * np.atleast_2d(np.asarray(sigma, dtype=float).T).T[:, j]
-            send_scalars(rec, f"{base}/{a}/plus3sigma", t_s, s3)
-            send_scalars(rec, f"{base}/{a}/minus3sigma", t_s, -s3)
+            for side, sign in (("plus3sigma", 1.0), ("minus3sigma", -1.0)):
+                send_scalars(rec, f"{base}/{a}/{side}", t_s, sign * s3)
+                style_series(rec, f"{base}/{a}/{side}", f"{'+' if sign > 0 else '−'}3σ {a}", SIGMA_RGBA, width=0.75)
+
+
+def hemisphere_continuous(q) -> np.ndarray:
+    """Quaternions ``(N, 4)`` with signs chosen so that consecutive ones have a non-negative dot product.
+
+    ``q`` and ``−q`` are one attitude; a series that flips sign looks like a jump in a plot.
+    """
+    q = np.array(q, dtype=float)
+    flips = np.concatenate([[False], np.einsum("ij,ij->i", q[1:], q[:-1]) < 0.0])
+    q[np.cumsum(flips) % 2 == 1] *= -1.0
+    return q
+
+
+def send_quaternion(rec, filter_name: str, quantity: str, t_s, q_estimate, q_truth,
+                    axes: Sequence[str] = ("w", "x", "y", "z")) -> None:
+    """Truth and estimate of a quaternion, plotted without sign flips.
+
+    The truth is made continuous in time (:func:`hemisphere_continuous`); each
+    estimate takes the sign that puts it in the truth's hemisphere, so a
+    converged filter plots on top of the truth instead of as its mirror image.
+    """
+    q_true = hemisphere_continuous(q_truth)
+    q_est = np.array(q_estimate, dtype=float)
+    q_est[np.einsum("ij,ij->i", q_est, q_true) < 0.0] *= -1.0
+    send_truth(rec, quantity, t_s, q_true, axes)
+    send_estimate(rec, filter_name, quantity, t_s, q_est, axes=axes)
+
+
+def whole_run_plot(**view) -> rrb.TimeSeriesView:
+    """A time-series view over the whole ``sim_time`` range (not a window that follows the time cursor)."""
+    whole = rrb.VisibleTimeRange("sim_time", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    return rrb.TimeSeriesView(**view, time_ranges=whole, plot_legend=rrb.PlotLegend(visible=True))
 
 
 def run_blueprint(
@@ -92,25 +148,23 @@ def run_blueprint(
     tabs = []
     if quantities:
         views = [
-            rrb.TimeSeriesView(
-                name=q, origin="/", contents=[f"/truth/{q}/**"] + [f"/estimate/{f}/{q}/**" for f in filters]
-            )
+            whole_run_plot(name=q, origin="/", contents=[f"/truth/{q}/**"] + [f"/estimate/{f}/{q}/**" for f in filters])
             for q in quantities
         ]
         tabs.append(rrb.Grid(*views, name="states"))
         if errors and filters:
             err_views = [
-                rrb.TimeSeriesView(name=f"{f}: {q} error ±3σ", origin=f"/estimate/{f}/error/{q}")
+                whole_run_plot(name=f"{f}: {q} error ±3σ", origin=f"/estimate/{f}/error/{q}")
                 for f in filters
                 for q in quantities
             ]
             tabs.append(rrb.Grid(*err_views, name="errors ±3σ"))
     if gates:
-        tabs.append(rrb.Vertical(rrb.TimeSeriesView(name="gates: e² and bounds", origin="/gate"),
+        tabs.append(rrb.Vertical(whole_run_plot(name="gates: e² and bounds", origin="/gate"),
                                  rrb.TextLogView(name="gate events", origin="/gate"), name="gates"))
     lc = []
     if lightcurve:
-        lc.append(rrb.TimeSeriesView(name="light curve", origin="/lightcurve"))
+        lc.append(whole_run_plot(name="light curve", origin="/lightcurve"))
     if spectrum:
         lc.append(rrb.BarChartView(name="spectrum", origin="/spectrum"))
     if lc:

@@ -26,10 +26,16 @@ TIMELINE = "sim_time"
 
 @contextlib.contextmanager
 def recording(path, *, recording_id: str | None = None, application_id: str = "lcnav", blueprint=None):
-    """Yield a :class:`rerun.RecordingStream` that is saved atomically to ``path`` on exit."""
-    with atomic_path(Path(path)) as tmp:
+    """Yield a :class:`rerun.RecordingStream` that is saved atomically to ``path`` on exit.
+
+    The recording is named after ``recording_id`` (or the file's stem), so several
+    recordings opened together are told apart in the viewer (not "<unknown>").
+    """
+    path = Path(path)
+    with atomic_path(path) as tmp:
         rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()), send_properties=False)
         rec.save(str(tmp), default_blueprint=blueprint)
+        rec.send_recording_name(recording_id or path.stem)
         try:
             yield rec
         finally:
