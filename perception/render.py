@@ -117,12 +117,6 @@ class StereoFrame:
     white_radiance: float
     variant: str
 
-    def gray_u8(self, side: str = "left", exposure: float = 1.0) -> np.ndarray:
-        """8-bit grey image, ``255 · luminance / (white_radiance / exposure)``, clipped."""
-        img = {"left": self.left, "right": self.right}[side]
-        lum = img @ np.array([0.2126, 0.7152, 0.0722])
-        return np.clip(255.0 * exposure * lum / self.white_radiance, 0.0, 255.0).astype(np.uint8)
-
 
 def pose_from_relative_state(x) -> tuple[np.ndarray, np.ndarray]:
     """``(C_CT, r_TC_C)`` from a relative state ``[q_TS, ω_ST_T, r_ST_T, …]`` (``002_…``), with C = S.
