@@ -20,15 +20,20 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) -m benchmarks
 
-# Mitsuba's llvm_* variants need libLLVM >= 16; without it lcnav runs scalar_rgb.
+# Debian packages: libllvm19 (Mitsuba's llvm_* variants need libLLVM >= 16; without it lcnav runs
+# scalar_rgb) and mesa-vulkan-drivers (software Vulkan, so `lcnav inspect --screenshot` can draw a
+# recording with rerun's headless viewer on a machine with no GPU).
 system:
-	@if ls /usr/lib/*/libLLVM*.so* 2>/dev/null | grep -Eq 'LLVM(-|\.so\.)(1[6-9]|[2-9][0-9])'; then \
-	    echo "libLLVM >= 16 present"; \
+	@need=""; \
+	ls /usr/lib/*/libLLVM*.so* 2>/dev/null | grep -Eq 'LLVM(-|\.so\.)(1[6-9]|[2-9][0-9])' || need="$$need libllvm19"; \
+	ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || need="$$need mesa-vulkan-drivers"; \
+	if [ -z "$$need" ]; then \
+	    echo "Debian packages present (libLLVM >= 16, Mesa Vulkan)"; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
-	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null) \
-	    || echo "notice: could not install libllvm19; Mitsuba will fall back to scalar_rgb"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$need >/dev/null) \
+	    || echo "notice: could not install$$need (Mitsuba falls back to scalar_rgb; no headless screenshots)"; \
 	else \
-	    echo "notice: not root or no apt-get; libllvm19 not installed, Mitsuba will fall back to scalar_rgb"; \
+	    echo "notice: not root or no apt-get; not installed:$$need"; \
 	fi
 
 $(STAMP): pyproject.toml | system
