@@ -121,8 +121,10 @@ def send_quaternion(rec, filter_name: str, quantity: str, t_s, q_estimate, q_tru
 
 def whole_run_plot(**view) -> rrb.TimeSeriesView:
     """A time-series view over the whole ``sim_time`` range (not a window that follows the time cursor)."""
-    whole = rrb.VisibleTimeRange("sim_time", start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
-    return rrb.TimeSeriesView(**view, time_ranges=whole, plot_legend=rrb.PlotLegend(visible=True))
+    everything = {"start": rrb.TimeRangeBoundary.infinite(), "end": rrb.TimeRangeBoundary.infinite()}
+    return rrb.TimeSeriesView(**view, time_ranges=rrb.VisibleTimeRange("sim_time", **everything),
+                              axis_x=rrb.TimeAxis(view_range=rrb.TimeRange(**everything), zoom_lock=False),
+                              plot_legend=rrb.PlotLegend(visible=True))
 
 
 def run_blueprint(
@@ -179,4 +181,6 @@ def run_blueprint(
         tabs.append(rrb.Horizontal(*perception, name="perception"))
     if not tabs:
         raise ValueError("run_blueprint: nothing to show (give quantities, or enable gates/lightcurve/spectrum/cameras/cloud)")
-    return rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0), collapse_panels=True)
+    # paused: a playing viewer scrolls every plot along with the time cursor instead of showing the run
+    return rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0), rrb.TimePanel(timeline="sim_time", play_state="paused"),
+                         collapse_panels=True)
