@@ -7,9 +7,9 @@ of sampling time, ``Q_d = diag(q_rate) τ_s``, so one tuning serves every
 ``τ_s``; all blocks are over the 14 error states
 ``[δp (rad), δω (rad/s), δr (m), δv (m/s), δk1, δk2]``.
 
-``R_d`` follows the pose-estimator model of §4.4: an isotropic error of
-amplitude σ has per-axis variance ``σ²/3`` (``σ_q = 0.12`` rad,
-``σ_r = 0.37`` m). ``P_0`` (:data:`P0_DEFAULT`) is sized to the paper's
+``R_d`` is not part of a tuning: it is the pose estimator's noise, and the
+filters take it from the same :class:`~estimators.measurement.PoseNoise` the
+simulated measurements are drawn from. ``P_0`` (:data:`P0_DEFAULT`) is sized to the paper's
 initial guess (``x̂_0 = 0`` but for ``k``): 1 rad on the attitude, 0.1 rad/s on
 ``ω`` (Table 1 rates reach 0.2 rad/s), 1 m and 2 m/s on ``r`` and ``v`` (the
 first measurements take over), 0.3 on ``k`` (the ±30 % of §6). The paper's
@@ -46,13 +46,11 @@ def _q(att, w, r, v, k) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Tuning:
-    """``Q_d`` rate (14,) per s of ``τ_s``, pose noise amplitudes, ``P_0`` diagonal (14,)."""
+    """``Q_d`` rate (14,) per s of ``τ_s`` and ``P_0`` diagonal (14,)."""
 
     name: str
     q_rate: np.ndarray
     p0_diag: np.ndarray
-    sigma_q_rad: float = 0.12
-    sigma_r_m: float = 0.37
     description: str = ""
 
     def __post_init__(self):
@@ -71,16 +69,6 @@ class Tuning:
     @property
     def P_0(self) -> np.ndarray:
         return np.diag(self.p0_diag)
-
-    @property
-    def R_attitude(self) -> np.ndarray:
-        """rad², ``σ_q²/3 I₃``."""
-        return np.eye(3) * self.sigma_q_rad**2 / 3.0
-
-    @property
-    def R_position(self) -> np.ndarray:
-        """m², ``σ_r²/3 I₃``."""
-        return np.eye(3) * self.sigma_r_m**2 / 3.0
 
 
 #: Default ``P_0`` diagonal: ``[δp (rad²), δω ((rad/s)²), δr (m²), δv ((m/s)²), δk]``.

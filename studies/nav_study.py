@@ -26,6 +26,7 @@ import pandas as pd
 
 from estimators.dynamics import k_from_inertia
 from estimators.error_state import ERROR_SLICES, boxminus
+from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
@@ -67,12 +68,11 @@ def navigate(
     prior_use: str = "none",
     proxy_mode: str = "always",
     R_w: float = R_OMEGA_PROXY,
-    sigma_q_rad: float = 0.12,
-    sigma_r_m: float = 0.37,
+    pose_noise: PoseNoise = PoseNoise(),
+    filter_noise: PoseNoise | None = None,
     faults=(),
     fault_sigma_q_rad: float = 1.5,
     fault_sigma_r_m: float = 20.0,
-    noise: str = "isotropic",
     gate_confidence: float | None = 0.99,
     gate_start_s: float = 10.0,
     reacquire_window: int | None = 5,
@@ -84,17 +84,18 @@ def navigate(
     """One filter run on the truth ``tr``; returns ``(NavigationRun, (t_meas, q_meas, r_meas, faulty))``.
 
     Draws, in this order from ``rng``: the measurements (unless ``meas`` is
-    given; pose noise amplitudes ``sigma_q_rad``, ``sigma_r_m``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
-    both. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
+    given; noise ``pose_noise``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
+    both. The filter's ``R_d`` is ``pose_noise`` too; ``filter_noise`` gives the
+    filter another one, for a study that mis-models the noise on purpose. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
     from the prior, §6.2; ``P0_w_prior`` overrides that block's variance) or
     ``"proxy"`` (also initialises, and pushes the prior as a ``ω`` measurement
     per ``proxy_mode``, §6.3). ``reacquire_window``: see
     :func:`estimators.navigation.run_navigation` (``None``: no re-acquisition).
     """
     if meas is None:
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=sigma_q_rad,
-                                       sigma_r_m=sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
-                                       fault_sigma_r_m=fault_sigma_r_m, noise=noise)
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                       sigma_r_m=pose_noise.sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
+                                       fault_sigma_r_m=fault_sigma_r_m, noise=pose_noise.model)
         meas = (m.t, m.q_TS, m.r_ST_T, m.faulty)
     x0 = initial_guess(tr, rng, inertia_range)
     P0 = tuning.P_0 if P0 is None else np.asarray(P0, dtype=float)
@@ -104,6 +105,7 @@ def navigate(
             P0[3:6, 3:6] = P0_w_prior * np.eye(3)
     run = run_navigation(
         filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
+        pose_noise=pose_noise if filter_noise is None else filter_noise,
         gate_confidence=gate_confidence, gate_start_s=gate_start_s, prior=prior,
         proxy=proxy_mode if prior_use == "proxy" else None, R_w=R_w, consider=consider,
         reacquire_window=reacquire_window,
@@ -190,8 +192,9 @@ COMMON_FIELDS: dict[str, Field] = {
     "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
     "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
     "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
-    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002).", gt=0, default=0.12),
-    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m.", gt=0, default=0.37),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
+    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m; the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_r_m),
+    "noise_model": Field("str", "Pose noise distribution (gaussian: N(0, sigma^2/3 I); isotropic: eq. 34 literally, same covariance, not chi-square).", choices=NOISE_MODELS, default=PoseNoise.model),
     "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
     "gate_confidence": Field("float", "Chi-square validation gate confidence per source (002 §4.3).", gt=0, le=0.999999, default=0.99),
     "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
@@ -208,6 +211,11 @@ def check_common(params: dict) -> None:
     lo_hi = params["inertia_guess_range"]
     if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
         raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+
+
+def pose_noise(params) -> PoseNoise:
+    """The pose noise of a config/run (the measurements' and the filter's)."""
+    return PoseNoise(params["sigma_q_rad"], params["sigma_r_m"], params["noise_model"])
 
 
 def thresholds(params) -> dict:

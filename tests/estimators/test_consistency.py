@@ -40,12 +40,14 @@ import numpy as np
 import pytest
 
 from estimators.error_state import attitude_error, boxminus, boxplus
+from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.metrics import fraction_in_band, nees
 
+NOISE = PoseNoise(model="gaussian")
 N_RUNS = 30
 DURATION_S = 100.0
 CONVERGED_AFTER = 10  # steps of 1 s
@@ -65,7 +67,7 @@ def _runs(tr, scenario, name, first_seed=1000):
     H = np.zeros((6, n))
     H[:3, :3] = H[3:, 6:9] = np.eye(3)
     R = np.zeros((6, 6))
-    R[:3, :3], R[3:, 3:] = tun.R_attitude, tun.R_position
+    R[:3, :3], R[3:, 3:] = NOISE.R_attitude, NOISE.R_position
     P = np.diag(SIGMA_0[:n] ** 2)
     K, P_inv = [], []
     for k in range(steps):
@@ -77,10 +79,10 @@ def _runs(tr, scenario, name, first_seed=1000):
     for i in range(N_RUNS):
         rng = np.random.default_rng(first_seed + i)
         x0 = boxplus(tr.x[0], rng.normal(size=14) * SIGMA_0)
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, noise="gaussian")
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=NOISE.sigma_q_rad, sigma_r_m=NOISE.sigma_r_m, noise=NOISE.model)
         run = run_navigation(
             name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T,
-            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, gate_confidence=None, consider=(12, 13) if one_axis else (),
+            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, pose_noise=NOISE, gate_confidence=None, consider=(12, 13) if one_axis else (),
         )
         E_filter.append(nees(run.x, run.P, tr.x, np.arange(n))[1:])
         noise = np.hstack([attitude_error(m.q_TS, tr.x[1:, 0:4]), m.r_ST_T - tr.x[1:, 7:10]])
