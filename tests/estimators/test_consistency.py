@@ -127,3 +127,41 @@ def test_nees_matches_an_exact_kalman_filter_on_the_same_noise(consistency_runs,
           f"mean/dof {E.mean() / dof:.3f} vs {E_exact.mean() / dof:.3f}")
     assert abs(E.mean() / E_exact.mean() - 1.0) < 0.1
     assert np.all((ratio > 0.8) & (ratio < 1.25))
+
+
+# ---- issue 12's criterion: from the default P_0, with the tunings lcnav ships
+
+#: Runs, duration (s) and statistics window of the default-P_0 check (the benchmark's 300 s, shortened:
+#: every failure measured so far shows by 120 s).
+N_DEFAULT, DURATION_DEFAULT_S = 30, 120.0
+
+
+@pytest.fixture(scope="module")
+def default_p0_runs(truth):
+    from estimators.tuning import get_tuning
+    from studies.nav_study import consistency_check
+
+    cache = {}
+
+    def get(scenario, name, tuning):
+        key = (scenario, name, tuning)
+        if key not in cache:
+            cache[key] = consistency_check(truth(scenario, DURATION_DEFAULT_S), name, get_tuning(tuning), n_runs=N_DEFAULT)
+        return cache[key]
+
+    return get
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 12, open: from the default P_0 (0.1 rad/s on the rate, 2 m/s, 0.3 on k) no shipped "
+                   "tuning is consistent; measured in benchmarks/RESULTS.md (consistency)")
+@pytest.mark.parametrize("scenario", ["SC1", "SC3"])
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name):
+    """NEES and NIS in their 95 % band on ≥ 90 % of the steps after the settling time, gate rates within 2× nominal."""
+    r = default_p0_runs(scenario, name, "general")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    assert r["nees_in_band"] >= 0.9
+    for s in ("attitude", "position"):
+        assert r[f"nis_{s}_in_band"] >= 0.9
+        assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
