@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.ekf import ExtendedKalmanFilter
+from estimators.error_state import ERROR_SLICES, N_ERROR
 from estimators.gates import GateDecision
 from estimators.measurement import PoseNoise
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, SpinPrior, rate_proxy
@@ -132,7 +133,15 @@ def run_navigation(
     proxy_used = np.zeros(n, dtype=bool)
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
+    consider = filt.consider
+    settle_consider = np.union1d(consider, np.arange(N_ERROR)[ERROR_SLICES["k"]]).astype(int)
     for k in range(1, n):
+        if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
+            settling = t[k - 1] - t[0] < tuning.settling_s
+            filt.Q = tuning.Q_d(tau, settling=settling)
+            filt.consider = settle_consider if settling else consider
+            if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
+                filt.linearization_covariance = settling
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
