@@ -57,7 +57,8 @@ def run() -> str:
         "worst run's. NIS (3 dof) likewise per source. Gate: rate of measurements above the one-sided "
         f"{100 * GATE_CONFIDENCE:g} % bound (rejected; nominal {nominal:g} %) and below the lower two-sided bound "
         f"(counted, never rejected; nominal {nominal / 2:g} %), with Wilson 95 % intervals. Issue 12's criteria: "
-        "≥ 90 % in band, gate rates within 2× nominal.",
+        "≥ 90 % in band, gate rates within 2× nominal. A negative NEES/dof means a diverged run whose `P` lost "
+        "positive definiteness.",
         "",
         "| scenario | tuning | filter | dof | NEES in band (%) | NEES/dof [95 % CI] | worst run NEES/dof | NIS att in band (%) | NIS pos in band (%) | NIS att/dof | NIS pos/dof | gate att rejected (%) | gate pos rejected (%) | NIS att low (%) | NIS pos low (%) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
