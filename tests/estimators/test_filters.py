@@ -25,7 +25,7 @@ def _setup(truth, name, rng, duration=40.0):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_quaternion_stays_unit_after_every_step(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0)
     att, pos = PoseNoise(model="isotropic").sources()
     norms = []
@@ -44,7 +44,7 @@ def test_quaternion_stays_unit_after_every_step(truth, rng, name):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_nan_measurement_is_refused_and_state_kept(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     f.predict(tr.servicer[0], 1.0)
     x, P = f.x.copy(), f.P.copy()
     att, pos = PoseNoise(model="isotropic").sources()
@@ -58,7 +58,7 @@ def test_nan_measurement_is_refused_and_state_kept(truth, rng, name):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_step_that_would_produce_nan_is_refused(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     x, P = f.x.copy(), f.P.copy()
     bad = tr.servicer[0].copy()
     bad[0] = np.inf  # a servicer AODS state at infinity

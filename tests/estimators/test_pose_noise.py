@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from estimators.attitude import quat_multiply, quat_to_rotvec, quat_conjugate
+from estimators.attitude import quat_conjugate, quat_multiply, quat_to_rotvec
 from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
