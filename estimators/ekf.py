@@ -16,6 +16,16 @@ gives the EKF the same error space as the USQUE UKF, so that both expose the
 same ``P``, ``y`` and ``S``. On a linear model ``⊞`` is ``+`` and this is the
 textbook Kalman filter.
 
+While ``linearization_covariance`` is set (the settling phase of a tuning,
+:mod:`estimators.tuning`), the prediction adds the covariance of the EKF's
+own linearisation error over the spread of ``P``: with the unscented sigma
+points ``σ_i`` of ``P`` (as in :mod:`estimators.ukf`), the residuals
+``ρ_i = f(x̂ ⊞ σ_i) ⊟ f(x̂) − F σ_i`` and ``Q_lin = Σ W_c,i ρ_i ρ_iᵀ`` (about
+zero, so a second-order bias counts too). It scales as ``P²`` and vanishes
+once the filter has converged; from the default ``P_0`` (0.1 rad/s on the
+rate) the first-order ``F P Fᵀ`` misses terms like ``2 δω × δv`` (~1 m/s²)
+and the EKF diverges without it.
+
 filterpy's ``ExtendedKalmanFilter`` is not used: it keeps ``x`` and ``P`` of
 the same size, predicts with ``x = F x`` and updates with ``x += K y``, none of
 which holds for a 15-number state with a 14×14 covariance and a
@@ -26,6 +36,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints
 
 from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
 
@@ -63,6 +74,8 @@ class ExtendedKalmanFilter(KalmanFilterBase):
     """EKF with the interface of :class:`~estimators.filter.KalmanFilterBase`."""
 
     kind = "ekf"
+    #: add the covariance of the linearisation error to ``P⁻`` (see the module docstring)
+    linearization_covariance = False
     #: the sources of the last update and their ``R_d`` (each source's ``R`` is fixed at its construction)
     _R_cache: tuple = ((), None)
 
@@ -70,7 +83,20 @@ class ExtendedKalmanFilter(KalmanFilterBase):
         x, F = self.model.propagate_with_jacobian(self.x, u, dt)  # eqs 25-26
         if not (np.isfinite(x).all() and np.isfinite(F).all()):
             raise NonFiniteError(f"ekf: propagating over dt={dt} gave NaN or Inf; step refused")
-        return x, _sandwich(np.ascontiguousarray(F), self.P, self.Q)  # any model's F (numba's @ warns on strided arrays)
+        F = np.ascontiguousarray(F)  # any model's F (numba's @ warns on strided arrays)
+        Q = self.Q + self._linearization_error(u, dt, x, F) if self.linearization_covariance else self.Q
+        return x, _sandwich(F, self.P, Q)
+
+    def _linearization_error(self, u, dt: float, x, F) -> np.ndarray:
+        """``Q_lin = Σ W_c,i ρ_i ρ_iᵀ``, ``ρ_i = f(x̂ ⊞ σ_i) ⊟ f(x̂) − F σ_i`` over the sigma points of ``P``."""
+        points = MerweScaledSigmaPoints(self.P.shape[0], alpha=1.0, beta=2.0, kappa=0.0)
+        dX = points.sigma_points(np.zeros(self.P.shape[0]), self.P)
+        X = self.model.propagate_batch(self.model.boxplus(self.x[None, :], dX), u, dt)
+        if not np.all(np.isfinite(X)):
+            raise NonFiniteError(f"ekf: propagating the sigma points over dt={dt} gave NaN or Inf; step refused")
+        rho = self.model.boxminus(X, x) - dX @ F.T
+        Q = (rho * points.Wc[:, None]).T @ rho
+        return 0.5 * (Q + Q.T)
 
     def _R_d(self, sources) -> np.ndarray:
         """``R_d`` of ``sources``, block-diagonal; reused while they are the same objects as at the last update."""

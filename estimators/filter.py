@@ -10,7 +10,8 @@ covariance). Two verbs:
 * ``update(parts, t=...)`` — ``parts`` is a sequence of ``(source, z)`` pairs
   (:mod:`estimators.measurement`), any subset of the sources of eq. 24 plus
   an optional prior proxy. Each gated source is tested on its own with the
-  two-sided chi-square gate of §4.3 (:func:`estimators.gates.chi_square_gate`),
+  one-sided chi-square gate (:func:`estimators.gates.chi_square_gate`; why not
+  the two-sided one of §4.3: :mod:`estimators.gates`),
   every decision is appended to ``gate_decisions``, and one update is made
   with the accepted parts only (``R_d`` restricted to them).
 
@@ -73,7 +74,6 @@ class KalmanFilterBase:
     Q : (n_error, n_error) or its diagonal; ``Q_d`` per step (positive semi-definite).
     gate_confidence : probability of accepting a correct measurement at each gate
         (``None``: no gating; every part is used).
-    two_sided : the two-sided test of §4.3 of ``002_…`` (default) or the one-sided one.
     consider : error-state indices that are *considered*, not estimated (Schmidt–Kalman):
         their gain rows are zero, so their estimate stays put while their
         uncertainty still enters ``P`` and ``S``. Used for ``k1, k2`` in one-axis
@@ -84,7 +84,7 @@ class KalmanFilterBase:
 
     kind = "base"
 
-    def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, two_sided: bool = True, consider=()):
+    def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, consider=()):
         self.model = model
         n, m = int(model.n_state), int(model.n_error)
         x0 = np.array(x0, dtype=float)
@@ -98,7 +98,6 @@ class KalmanFilterBase:
         if gate_confidence is not None and not (0.0 < gate_confidence < 1.0):
             raise ValueError(f"gate_confidence must lie in (0, 1) or be None, got {gate_confidence!r}")
         self.gate_confidence = gate_confidence
-        self.two_sided = two_sided
         self.consider = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
         if self.consider.size and (self.consider.min() < 0 or self.consider.max() >= m):
             raise ValueError(f"consider indices must lie in [0, {m}), got {consider!r}")
@@ -137,7 +136,7 @@ class KalmanFilterBase:
             self.innovations[src.name] = (y[sl].copy(), S[sl, sl].copy())
             accepted = True
             if gate and src.gated and self.gate_confidence is not None:
-                d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence, two_sided=self.two_sided)
+                d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence)
                 decisions.append(d)
                 accepted = d.accepted
             keep[sl] = accepted

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.ekf import ExtendedKalmanFilter
+from estimators.error_state import ERROR_SLICES, N_ERROR
 from estimators.gates import GateDecision
-from estimators.measurement import AttitudeMeasurement, PositionMeasurement
+from estimators.measurement import PoseNoise
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, SpinPrior, rate_proxy
 from estimators.process_model import RelativeProcessModel
 from estimators.reacquisition import Reacquisition
@@ -55,6 +56,7 @@ class NavigationRun:
     accepted: dict
     proxy_used: np.ndarray
     decisions: tuple[GateDecision, ...]
+    pose_noise: PoseNoise = PoseNoise()  #: the noise model the filter's ``R_d`` came from
     reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
 
 
@@ -69,6 +71,7 @@ def run_navigation(
     *,
     x0,
     tuning: Tuning,
+    pose_noise: PoseNoise,
     P0=None,
     gate_confidence: float | None = 0.99,
     gate_start_s: float = 0.0,
@@ -84,6 +87,8 @@ def run_navigation(
     AODS); ``t`` must be evenly spaced by ``τ_s``; every measurement time must
     be a grid time after ``t[0]``. ``x0``/``P0`` (default ``tuning.P_0``) is the
     initial estimate, e.g. from :func:`estimators.prior.initialize_with_prior`.
+    ``pose_noise``: the pose estimator's noise, the filter's ``R_d`` — the same
+    object the measurements were simulated with, unless a study mis-models on purpose.
     ``proxy``: ``None``, ``"always"`` or ``"on_reject"`` (needs ``prior``).
     ``gate_start_s``: the gates test measurements from this time on (s since
     ``t[0]``); before it every measurement is used (acquisition from ``x̂_0``).
@@ -118,8 +123,7 @@ def run_navigation(
 
     model = RelativeProcessModel(J_S_diag)
     filt = make_filter(filter_name, model, x0, tuning.P_0 if P0 is None else P0, tuning.Q_d(tau), gate_confidence=gate_confidence, **filter_kwargs)
-    att = AttitudeMeasurement(R=tuning.R_attitude)
-    pos = PositionMeasurement(R=tuning.R_position)
+    att, pos = pose_noise.sources()
 
     n = len(t)
     xs = np.empty((n, 15))
@@ -129,7 +133,15 @@ def run_navigation(
     proxy_used = np.zeros(n, dtype=bool)
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
+    consider = filt.consider
+    settle_consider = np.union1d(consider, np.arange(N_ERROR)[ERROR_SLICES["k"]]).astype(int)
     for k in range(1, n):
+        if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
+            settling = t[k - 1] - t[0] < tuning.settling_s
+            filt.Q = tuning.Q_d(tau, settling=settling)
+            filt.consider = settle_consider if settling else consider
+            if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
+                filt.linearization_covariance = settling
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
@@ -156,6 +168,6 @@ def run_navigation(
             proxy_used[k] = True
         xs[k], Ps[k] = filt.x, filt.P
     return NavigationRun(
-        filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used,
+        filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
     )

@@ -30,8 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.attitude import quat_multiply, rotvec_to_quat
-
-NOISE_MODELS = ("isotropic", "gaussian")
+from estimators.measurement import NOISE_MODELS, PoseNoise
 
 
 @dataclass(frozen=True)
@@ -79,8 +78,8 @@ def simulate_pose_measurements(
     rng: np.random.Generator,
     *,
     tau_s: float,
-    sigma_q_rad: float = 0.12,
-    sigma_r_m: float = 0.37,
+    sigma_q_rad: float = PoseNoise.sigma_q_rad,
+    sigma_r_m: float = PoseNoise.sigma_r_m,
     range_scaling: bool = False,
     reference_range_m: float = 50.0,
     faults=(),
@@ -93,7 +92,11 @@ def simulate_pose_measurements(
 
     Measurements are taken every ``tau_s`` seconds from ``t_start`` (default:
     one sampling time after ``t[0]``, the first filter update) to ``t[-1]``;
-    those instants must be on the truth grid (to 1e-9 s).
+    those instants must be on the truth grid (to 1e-9 s). The amplitudes and
+    ``noise`` are those of a :class:`~estimators.measurement.PoseNoise`, from
+    which the filters take their ``R_d`` (:func:`studies.nav_study.navigate`
+    passes one object to both). The default ``noise="isotropic"`` is eq. 34
+    read literally.
     """
     t = np.asarray(t, dtype=float)
     x_true = np.asarray(x_true, dtype=float)

@@ -143,6 +143,7 @@ def navigate(truth: Truth, filter_name: str, arm: str, spin: SpinPrior | None, m
     seed sees the same data (paired comparisons). One-axis scenarios
     consider ``k1, k2`` instead of estimating them (as ``lcnav run``).
     """
+    from estimators.measurement import PoseNoise
     from studies.nav_study import navigate as navigate_once
     from studies.nav_study import one_axis
 
@@ -151,7 +152,7 @@ def navigate(truth: Truth, filter_name: str, arm: str, spin: SpinPrior | None, m
     consider = (12, 13) if one_axis(truth.scenario.w_T0_T_rad_s) else ()
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
     run, meas = navigate_once(truth, filter_name, tun, np.random.default_rng(measurement_seed), prior=spin, prior_use=use,
-                              proxy_mode="always", faults=faults, noise="isotropic", gate_confidence=gate_confidence,
+                              proxy_mode="always", faults=faults, pose_noise=PoseNoise(model="isotropic"), gate_confidence=gate_confidence,
                               gate_start_s=gate_start_s, consider=consider)
     return run, meas, tuning_name
 

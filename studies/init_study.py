@@ -30,7 +30,7 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, draw_prior, error_series, median_interval, metric_tables,
-    navigate, one_axis, paired_error_figure, paired_specs, record_navigation, run_metrics, thresholds,
+    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, record_navigation, run_metrics, thresholds,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.sweep import RunSpec
@@ -77,7 +77,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     prior = draw_prior(w_true, p["prior_rate_error"], p["prior_error_direction"], rng)  # drawn in both arms (paired streams)
     run, meas = navigate(
         tr, p["filter"], get_tuning(p["tuning"]), rng, prior=prior, prior_use="init" if p["prior"] else "none",
-        P0_w_prior=p["P0_w_prior"], sigma_q_rad=p["sigma_q_rad"], sigma_r_m=p["sigma_r_m"],
+        P0_w_prior=p["P0_w_prior"], pose_noise=pose_noise(p),
         gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
         consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
     )

@@ -29,6 +29,12 @@ NEES ``ε = δxᵀ P⁻¹ δx`` over the 14 error states (``δx = x ⊟ x̂``,
 :mod:`estimators.error_state`) and NIS ``e² = vᵀ S⁻¹ v`` per source; over ``N``
 Monte-Carlo runs their mean is tested against the two-sided chi-square band
 ``χ²_{N·dof}((1 ∓ c)/2) / N`` (Bar-Shalom, Li & Kirubarajan, §5.4).
+
+"After convergence", for every consistency figure lcnav prints (``lcnav run``,
+``python -m benchmarks consistency``), means from :data:`SETTLING_S` on: a
+fixed settling time, the same for every run, filter and tuning, stated in the
+output. A per-run convergence time would select the runs and steps that
+happen to look good.
 """
 
 from __future__ import annotations
@@ -44,6 +50,8 @@ from estimators.error_state import ERROR_SLICES, boxminus
 GROUPS = ("q", "w", "r", "v", "k")
 #: Default convergence thresholds per group (rad, rad/s, m, m/s, –).
 DEFAULT_THRESHOLDS = {"q": float(np.radians(2.0)), "w": float(np.radians(2.0)), "r": 1.0, "v": 0.1, "k": 0.2}
+#: Settling time (s since the first sample) after which NEES and NIS are tested.
+SETTLING_S = 60.0
 _STATE_SLICES = {"w": slice(4, 7), "r": slice(7, 10), "v": slice(10, 13), "k": slice(13, 15)}
 
 

@@ -11,6 +11,8 @@ Shared by ``lcnav run`` (:mod:`studies.run_cmd`) and the studies of ``002_…``
   (§6.2) and/or as proxy measurement (§6.3), then the filter;
 * :func:`run_metrics` — §6's convergence time and steady-state RMSE per
   group, state and filter based, as a flat dict for a study's runs table;
+* :func:`consistency_check` — Monte-Carlo NEES/NIS and gate rates of one
+  filter and tuning from initial errors drawn from its ``P_0``;
 * :func:`error_series` — per-step error magnitude and 1-σ per group, the
   data of the error-vs-time figures (Figs 6 and 7 of ``002_…``);
 * :func:`record_navigation` — the run's ``.rrd`` in the layout of
@@ -25,14 +27,15 @@ import numpy as np
 import pandas as pd
 
 from estimators.dynamics import k_from_inertia
-from estimators.error_state import ERROR_SLICES, boxminus
+from estimators.error_state import ERROR_SLICES, boxminus, boxplus
+from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
 from studies.config import ConfigError, Field
-from studies.metrics import GROUPS, evaluate, filter_sigmas, state_errors
+from studies.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
 from studies.recording import recording, send_scalars, set_sim_time
 from studies.io import atomic_path
 from studies.truth import Truth
@@ -67,12 +70,11 @@ def navigate(
     prior_use: str = "none",
     proxy_mode: str = "always",
     R_w: float = R_OMEGA_PROXY,
-    sigma_q_rad: float = 0.12,
-    sigma_r_m: float = 0.37,
+    pose_noise: PoseNoise = PoseNoise(),
+    filter_noise: PoseNoise | None = None,
     faults=(),
     fault_sigma_q_rad: float = 1.5,
     fault_sigma_r_m: float = 20.0,
-    noise: str = "isotropic",
     gate_confidence: float | None = 0.99,
     gate_start_s: float = 10.0,
     reacquire_window: int | None = 5,
@@ -84,17 +86,18 @@ def navigate(
     """One filter run on the truth ``tr``; returns ``(NavigationRun, (t_meas, q_meas, r_meas, faulty))``.
 
     Draws, in this order from ``rng``: the measurements (unless ``meas`` is
-    given; pose noise amplitudes ``sigma_q_rad``, ``sigma_r_m``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
-    both. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
+    given; noise ``pose_noise``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
+    both. The filter's ``R_d`` is ``pose_noise`` too; ``filter_noise`` gives the
+    filter another one, for a study that mis-models the noise on purpose. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
     from the prior, §6.2; ``P0_w_prior`` overrides that block's variance) or
     ``"proxy"`` (also initialises, and pushes the prior as a ``ω`` measurement
     per ``proxy_mode``, §6.3). ``reacquire_window``: see
     :func:`estimators.navigation.run_navigation` (``None``: no re-acquisition).
     """
     if meas is None:
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=sigma_q_rad,
-                                       sigma_r_m=sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
-                                       fault_sigma_r_m=fault_sigma_r_m, noise=noise)
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                       sigma_r_m=pose_noise.sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
+                                       fault_sigma_r_m=fault_sigma_r_m, noise=pose_noise.model)
         meas = (m.t, m.q_TS, m.r_ST_T, m.faulty)
     x0 = initial_guess(tr, rng, inertia_range)
     P0 = tuning.P_0 if P0 is None else np.asarray(P0, dtype=float)
@@ -104,11 +107,78 @@ def navigate(
             P0[3:6, 3:6] = P0_w_prior * np.eye(3)
     run = run_navigation(
         filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
+        pose_noise=pose_noise if filter_noise is None else filter_noise,
         gate_confidence=gate_confidence, gate_start_s=gate_start_s, prior=prior,
         proxy=proxy_mode if prior_use == "proxy" else None, R_w=R_w, consider=consider,
         reacquire_window=reacquire_window,
     )
     return run, meas
+
+
+def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: int = 30, first_seed: int = 1000,
+                      pose_noise: PoseNoise = PoseNoise(), gate_confidence: float = 0.99, gate_start_s: float = 10.0,
+                      settling_s: float = SETTLING_S, confidence: float = 0.95) -> dict:
+    """NEES, NIS and gate statistics of ``n_runs`` runs on ``tr`` from initial errors drawn from ``N(0, P_0)``.
+
+    Run ``i`` draws from ``default_rng(first_seed + i)`` the measurements
+    (``pose_noise``, also the filter's ``R_d``), then the initial error
+    ``δx ~ N(0, tuning.P_0)``, ``x̂_0 = x ⊞ δx`` — so that the NEES means what it
+    says from the first step (§6's fixed guess ``q = 1, r = 0`` is 50 m off in
+    position against a 1 m ``P_0``). One-axis tumbles consider ``k`` and test
+    12 states. Steps from ``settling_s`` on count (:data:`studies.metrics.SETTLING_S`).
+
+    Returns a flat dict: ``nees_in_band`` (fraction of steps whose ``n_runs``-mean
+    NEES lies in its two-sided ``confidence`` band), ``nees_below``/``nees_above``,
+    ``nees_per_dof`` with its t interval over runs (``_lo``/``_hi``),
+    ``nees_per_dof_worst_run``; per source ``nis_<s>_in_band``, ``nis_<s>_per_dof``
+    (t interval), ``gate_<s>_rejected`` (rate above the one-sided bound, Wilson
+    interval, nominal ``1 − gate_confidence``) and ``nis_<s>_low`` (rate below the
+    lower two-sided bound, nominal ``(1 − gate_confidence)/2``: counted, never rejected).
+    """
+    from scipy.stats import chi2
+
+    from studies.stats import proportion_interval, t_interval
+
+    oa = one_axis(tr.scenario.w_T0_T_rad_s)
+    states = np.arange(12) if oa else np.arange(14)
+    dof = len(states)
+    sel = (tr.t - tr.t[0]) >= settling_s
+    if not sel.any():
+        raise ValueError(f"settling_s ({settling_s} s) must be shorter than the run ({tr.t[-1] - tr.t[0]} s)")
+    E, nis = [], {s: [] for s in SOURCES}
+    for i in range(n_runs):
+        rng = np.random.default_rng(first_seed + i)
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                       sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
+        x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(14), tuning.P_0))
+        run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
+                             pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
+                             consider=K_STATES if oa else ())
+        E.append(nees(run.x, run.P, tr.x, states)[sel])
+        for s in SOURCES:
+            nis[s].append(run.nis[s][sel])
+    E = np.array(E)
+    lo, hi = chi_square_band(dof, n_runs, confidence)
+    avg = E.mean(axis=0)
+    per_run = E.mean(axis=1) / dof
+    iv = t_interval(per_run, confidence)
+    out = {"filter": filter_name, "scenario": tr.scenario.name, "tuning": tuning.name, "runs": n_runs, "dof": dof,
+           "settling_s": settling_s, "duration_s": float(tr.t[-1] - tr.t[0]),
+           "nees_in_band": float(np.mean((avg >= lo) & (avg <= hi))), "nees_below": float(np.mean(avg < lo)),
+           "nees_above": float(np.mean(avg > hi)), "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo,
+           "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(per_run.max())}
+    upper = chi2.ppf(gate_confidence, 3)
+    lower = chi2.ppf(0.5 * (1.0 - gate_confidence), 3)
+    for s in SOURCES:
+        v = np.array(nis[s])
+        ok = np.isfinite(v)
+        out[f"nis_{s}_in_band"] = fraction_in_band(v, 3, confidence=confidence)
+        niv = t_interval(np.nanmean(v, axis=1) / 3.0, confidence)
+        out.update({f"nis_{s}_per_dof": niv.estimate, f"nis_{s}_per_dof_lo": niv.lo, f"nis_{s}_per_dof_hi": niv.hi})
+        for key, k in ((f"gate_{s}_rejected", int(np.sum(v[ok] > upper))), (f"nis_{s}_low", int(np.sum(v[ok] < lower)))):
+            p = proportion_interval(k, int(ok.sum()), confidence)
+            out.update({key: p.estimate, f"{key}_lo": p.lo, f"{key}_hi": p.hi})
+    return out
 
 
 def run_metrics(tr: Truth, run: NavigationRun, thresholds: dict | None = None) -> dict:
@@ -190,8 +260,9 @@ COMMON_FIELDS: dict[str, Field] = {
     "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
     "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
     "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
-    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002).", gt=0, default=0.12),
-    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m.", gt=0, default=0.37),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
+    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m; the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_r_m),
+    "noise_model": Field("str", "Pose noise distribution (gaussian: N(0, sigma^2/3 I); isotropic: eq. 34 literally, same covariance, not chi-square).", choices=NOISE_MODELS, default=PoseNoise.model),
     "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
     "gate_confidence": Field("float", "Chi-square validation gate confidence per source (002 §4.3).", gt=0, le=0.999999, default=0.99),
     "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
@@ -208,6 +279,11 @@ def check_common(params: dict) -> None:
     lo_hi = params["inertia_guess_range"]
     if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
         raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+
+
+def pose_noise(params) -> PoseNoise:
+    """The pose noise of a config/run (the measurements' and the filter's)."""
+    return PoseNoise(params["sigma_q_rad"], params["sigma_r_m"], params["noise_model"])
 
 
 def thresholds(params) -> dict:

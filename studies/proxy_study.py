@@ -34,7 +34,7 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, K_STATES, check_common, draw_prior, error_series, median_interval,
-    navigate, one_axis, paired_error_figure, paired_specs, record_navigation,
+    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, record_navigation,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.stats import t_interval
@@ -96,7 +96,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     run, meas = navigate(
         tr, p["filter"], get_tuning(p["tuning"]), rng, prior=prior, prior_use="proxy" if p["proxy"] else "init",
         proxy_mode=p["proxy_mode"], R_w=p["R_omega"], faults=[(p["fault_start_s"], p["fault_duration_s"])],
-        sigma_q_rad=p["sigma_q_rad"], sigma_r_m=p["sigma_r_m"], fault_sigma_q_rad=scale * p["sigma_q_rad"],
+        pose_noise=pose_noise(p), fault_sigma_q_rad=scale * p["sigma_q_rad"],
         fault_sigma_r_m=scale * p["sigma_r_m"], gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
         consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
     )

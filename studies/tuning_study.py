@@ -42,7 +42,7 @@ from studies.io import atomic_path
 from studies.metrics import GROUPS
 from studies.nav_study import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, error_series, metric_tables, navigate, one_axis,
-    record_navigation, run_metrics, thresholds,
+    pose_noise, record_navigation, run_metrics, thresholds,
 )
 from studies.scenarios import SCENARIOS, get_scenario
 from studies.sweep import RunSpec, make_specs
@@ -108,7 +108,7 @@ def grid_tuning(params) -> Tuning:
     for block, group in BLOCKS.items():
         if f"q_exp_{block}" in params:
             q[ERROR_SLICES[group]] = 10.0 ** params[f"q_exp_{block}"]
-    return Tuning(f"grid-{params.get('q_index', 0)}", q, base.p0_diag, sigma_q_rad=params["sigma_q_rad"], sigma_r_m=params["sigma_r_m"])
+    return Tuning(f"grid-{params.get('q_index', 0)}", q, base.p0_diag)
 
 
 def tracked_groups(scenario: str) -> list[str]:
@@ -132,7 +132,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
     try:
         run, meas = navigate(
-            tr, p["filter"], grid_tuning(p), rng, sigma_q_rad=p["sigma_q_rad"], sigma_r_m=p["sigma_r_m"],
+            tr, p["filter"], grid_tuning(p), rng, pose_noise=pose_noise(p),
             gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
             consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
         )

@@ -40,12 +40,14 @@ import numpy as np
 import pytest
 
 from estimators.error_state import attitude_error, boxminus, boxplus
+from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.metrics import fraction_in_band, nees
 
+NOISE = PoseNoise(model="gaussian")
 N_RUNS = 30
 DURATION_S = 100.0
 CONVERGED_AFTER = 10  # steps of 1 s
@@ -65,7 +67,7 @@ def _runs(tr, scenario, name, first_seed=1000):
     H = np.zeros((6, n))
     H[:3, :3] = H[3:, 6:9] = np.eye(3)
     R = np.zeros((6, 6))
-    R[:3, :3], R[3:, 3:] = tun.R_attitude, tun.R_position
+    R[:3, :3], R[3:, 3:] = NOISE.R_attitude, NOISE.R_position
     P = np.diag(SIGMA_0[:n] ** 2)
     K, P_inv = [], []
     for k in range(steps):
@@ -77,10 +79,10 @@ def _runs(tr, scenario, name, first_seed=1000):
     for i in range(N_RUNS):
         rng = np.random.default_rng(first_seed + i)
         x0 = boxplus(tr.x[0], rng.normal(size=14) * SIGMA_0)
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, noise="gaussian")
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=NOISE.sigma_q_rad, sigma_r_m=NOISE.sigma_r_m, noise=NOISE.model)
         run = run_navigation(
             name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T,
-            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, gate_confidence=None, consider=(12, 13) if one_axis else (),
+            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, pose_noise=NOISE, gate_confidence=None, consider=(12, 13) if one_axis else (),
         )
         E_filter.append(nees(run.x, run.P, tr.x, np.arange(n))[1:])
         noise = np.hstack([attitude_error(m.q_TS, tr.x[1:, 0:4]), m.r_ST_T - tr.x[1:, 7:10]])
@@ -125,3 +127,58 @@ def test_nees_matches_an_exact_kalman_filter_on_the_same_noise(consistency_runs,
           f"mean/dof {E.mean() / dof:.3f} vs {E_exact.mean() / dof:.3f}")
     assert abs(E.mean() / E_exact.mean() - 1.0) < 0.1
     assert np.all((ratio > 0.8) & (ratio < 1.25))
+
+
+# ---- issue 12's criterion: from the default P_0, with the tunings lcnav ships
+
+#: Runs, duration (s) and statistics window of the default-P_0 check (the benchmark's 300 s, shortened:
+#: every failure measured so far shows by 120 s).
+N_DEFAULT, DURATION_DEFAULT_S = 30, 120.0
+
+
+@pytest.fixture(scope="module")
+def default_p0_runs(truth):
+    from estimators.tuning import get_tuning
+    from studies.nav_study import consistency_check
+
+    cache = {}
+
+    def get(scenario, name, tuning):
+        key = (scenario, name, tuning)
+        if key not in cache:
+            cache[key] = consistency_check(truth(scenario, DURATION_DEFAULT_S), name, get_tuning(tuning), n_runs=N_DEFAULT)
+        return cache[key]
+
+    return get
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 12, open: from the default P_0 (0.1 rad/s on the rate, 2 m/s, 0.3 on k) no shipped "
+                   "tuning is consistent; measured in benchmarks/RESULTS.md (consistency)")
+@pytest.mark.parametrize("scenario", ["SC1", "SC3"])
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name):
+    """NEES and NIS in their 95 % band on ≥ 90 % of the steps after the settling time, gate rates within 2× nominal."""
+    r = default_p0_runs(scenario, name, "general")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    assert r["nees_in_band"] >= 0.9
+    for s in ("attitude", "position"):
+        assert r[f"nis_{s}_in_band"] >= 0.9
+        assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_settled_tuning_is_consistent_on_sc1_from_the_default_p0(default_p0_runs, name):
+    """``settled`` on SC1 from the default ``P_0``: NIS in band, gates at their nominal rate, NEES within 35 %.
+
+    Without its settling phase (``consistent``, ``Q_d = 0``) the same runs have a
+    mean NEES/dof of 420 (EKF) and 2.9 (UKF) and the EKF's gates reject ~10 %;
+    ``general`` is at 0.46 (conservative). Measured at 300 s: EKF 1.19, UKF 0.91.
+    """
+    r = default_p0_runs("SC1", name, "settled")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    assert 0.75 <= r["nees_per_dof"] <= 1.35
+    for s in ("attitude", "position"):
+        assert r[f"nis_{s}_in_band"] >= 0.9
+        assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02

@@ -5,7 +5,7 @@ import pytest
 
 from estimators.error_state import boxplus
 from estimators.filter import NonFiniteError
-from estimators.measurement import AttitudeMeasurement, PositionMeasurement
+from estimators.measurement import PoseNoise
 from estimators.navigation import make_filter
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
@@ -25,9 +25,9 @@ def _setup(truth, name, rng, duration=40.0):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_quaternion_stays_unit_after_every_step(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0)
-    att, pos = AttitudeMeasurement(tun.R_attitude), PositionMeasurement(tun.R_position)
+    att, pos = PoseNoise(model="isotropic").sources()
     norms = []
     for k in range(1, len(tr.t)):
         f.predict(tr.servicer[k - 1], 1.0)
@@ -44,10 +44,10 @@ def test_quaternion_stays_unit_after_every_step(truth, rng, name):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_nan_measurement_is_refused_and_state_kept(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     f.predict(tr.servicer[0], 1.0)
     x, P = f.x.copy(), f.P.copy()
-    att, pos = AttitudeMeasurement(tun.R_attitude), PositionMeasurement(tun.R_position)
+    att, pos = PoseNoise(model="isotropic").sources()
     with pytest.raises(ValueError, match="NaN or Inf"):
         f.update([(att, tr.x[1, 0:4]), (pos, np.array([1.0, np.nan, 2.0]))], t=1.0)
     with pytest.raises(ValueError, match="unit quaternion"):
@@ -58,7 +58,7 @@ def test_nan_measurement_is_refused_and_state_kept(truth, rng, name):
 
 @pytest.mark.parametrize("name", FILTERS)
 def test_step_that_would_produce_nan_is_refused(truth, rng, name):
-    tr, tun, f = _setup(truth, name, rng)
+    tr, _, f = _setup(truth, name, rng)
     x, P = f.x.copy(), f.P.copy()
     bad = tr.servicer[0].copy()
     bad[0] = np.inf  # a servicer AODS state at infinity

@@ -17,8 +17,9 @@ def cv_transition(dt):
     return F
 
 
-@pytest.mark.parametrize("cls", [ExtendedKalmanFilter, UnscentedKalmanFilter])
-def test_linear_model_matches_textbook_kalman_filter(cls):
+@pytest.mark.parametrize("cls,linearization_covariance", [(ExtendedKalmanFilter, False), (ExtendedKalmanFilter, True), (UnscentedKalmanFilter, False)])
+def test_linear_model_matches_textbook_kalman_filter(cls, linearization_covariance):
+    """On a linear model the EKF's linearisation-error covariance (settling phase) is exactly zero."""
     rng = np.random.default_rng(7)
     dt = 0.5
     Q = np.diag([1e-3, 2e-3, 1e-2, 5e-3]) + 1e-4
@@ -27,6 +28,8 @@ def test_linear_model_matches_textbook_kalman_filter(cls):
     sx = LinearMeasurement(H=[[1.0, 0, 0, 0]], R=[[0.2]], name="x")
     sy = LinearMeasurement(H=[[0, 1.0, 0, 0], [0, 0, 0, 1.0]], R=[[0.3, 0.05], [0.05, 0.1]], name="y")
     f = cls(LinearProcessModel(cv_transition), x0, P0, Q, gate_confidence=None)
+    if linearization_covariance:
+        f.linearization_covariance = True
 
     kf = KalmanFilter(dim_x=4, dim_z=3)
     kf.x, kf.P, kf.F, kf.Q = x0.copy(), P0.copy(), cv_transition(dt), Q

@@ -63,3 +63,17 @@ def test_bad_model_input():
         RelativeProcessModel(np.array([1.0, -1.0, 1.0]))
     with pytest.raises(ValueError, match="dt"):
         RelativeProcessModel(np.ones(3)).propagate(np.r_[1.0, np.zeros(14)], np.r_[7e6, 0, 0, 0, 7.5e3, 0, 1, 0, 0, 0, 0, 0, 0], 0.0)
+
+
+def test_tuning_settling_phase():
+    from estimators.tuning import Tuning, get_tuning
+
+    t = get_tuning("settled")
+    assert t.settling_s > 0 and np.all(t.q_rate == 0)
+    np.testing.assert_array_equal(t.Q_d(2.0), np.zeros((14, 14)))
+    np.testing.assert_allclose(np.diag(t.Q_d(2.0, settling=True)), 2.0 * t.settling_q_rate)
+    assert np.all(get_tuning("general").settling_q_rate == 0) and get_tuning("general").settling_s == 0
+    with pytest.raises(ValueError, match="settling_s"):
+        Tuning("x", np.zeros(14), np.ones(14), settling_s=-1.0)
+    with pytest.raises(ValueError, match="settling_q_rate"):
+        Tuning("x", np.zeros(14), np.ones(14), settling_q_rate=-np.ones(14))

@@ -100,3 +100,22 @@ def test_bad_input_one_line_nonzero_exit_no_output(tmp_path, capsys, extra, mess
     assert code != 0
     assert err.count("\n") == 1 and err.startswith("lcnav: ") and message in err, err
     assert not out.exists()
+
+
+def test_navigate_draws_and_filters_with_one_pose_noise():
+    """``navigate`` simulates with ``pose_noise`` and gives the filter the same ``R_d`` (unless told to mis-model)."""
+    from estimators.measurement import PoseNoise
+    from estimators.tuning import get_tuning
+    from studies.nav_study import navigate
+    from studies.scenarios import get_scenario
+    from studies.truth import simulate_truth
+
+    tr = simulate_truth(get_scenario("SC1"), 400.0, 1.0)
+    noise = PoseNoise(0.03, 1.2, "gaussian")
+    run, (_, _, r, _) = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, consider=(12, 13))
+    assert run.pose_noise == noise
+    # 1200 position-error components of sd 1.2/sqrt(3): their variance within 15 % of R (0.48 m²; ~4 % sd at this size)
+    assert np.var(r - tr.x[1:, 7:10]) == pytest.approx(noise.R_position[0, 0], rel=0.15)
+    wrong = PoseNoise()
+    run, _ = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, filter_noise=wrong, consider=(12, 13))
+    assert run.pose_noise == wrong
