@@ -184,3 +184,22 @@ def run_blueprint(
     # paused: a playing viewer scrolls every plot along with the time cursor instead of showing the run
     return rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0), rrb.TimePanel(timeline="sim_time", play_state="paused"),
                          collapse_panels=True)
+
+
+def lightcurve_blueprint(*, spectra: Sequence[str] = ("dirty", "clean", "residual", "window")) -> rrb.Blueprint:
+    """The viewer layout of a light-curve recording: the curve, its geometry, its spectra.
+
+    The viewer cannot invert a plot axis, so the curve is shown as relative
+    flux (up = brighter) above the magnitudes (up = fainter, as logged). Each
+    spectrum is a bar chart over frequency in mHz (``/spectrum/<name>``).
+    """
+    curve = rrb.Vertical(
+        whole_run_plot(name="relative flux (up = brighter)", origin="/lightcurve/relative_flux"),
+        whole_run_plot(name="magnitude (up = fainter)", origin="/lightcurve", contents=["/lightcurve/mag", "/lightcurve/mag_true"]),
+        whole_run_plot(name="geometry", origin="/lightcurve/geometry"),
+        name="light curve",
+    )
+    spectrum = rrb.Vertical(*(rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}") for n in spectra),
+                            rrb.TextDocumentView(name="extracted prior", origin="/spectrum/summary"), name="spectrum")
+    return rrb.Blueprint(rrb.Tabs(curve, spectrum, active_tab=0), rrb.TimePanel(timeline="sim_time", play_state="paused"),
+                         collapse_panels=True)

@@ -33,7 +33,7 @@ from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_truth
+from studies.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
 from studies.config import ConfigError, Field
 from studies.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
 from studies.recording import recording, send_scalars, set_sim_time
@@ -217,8 +217,7 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
                   "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
     blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
     with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
-        send_truth(rec, "q_TS", t, tr.x[:, 0:4], QUAT_AXES)
-        send_estimate(rec, f, "q_TS", t, run.x[:, 0:4], axes=QUAT_AXES)
+        send_quaternion(rec, f, "q_TS", t, run.x[:, 0:4], tr.x[:, 0:4], QUAT_AXES)
         # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
         send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
         for name, (sl, esl, axes) in quantities.items():
