@@ -25,6 +25,9 @@ Stable API (shared with ``perception``; DESIGN.md)
   (rewrites vertex positions/normals from the T-frame originals),
   ``set_sun(sun_W)``, ``set_sensor(key, to_world_4x4)``; each ends with
   ``params.update()``.
+* :func:`load_mesh_target` ``({part: (path, Material)}, ...) -> Target`` —
+  user OBJ/PLY files (Mitsuba's loaders), one file per part, each with its
+  own material.
 * :func:`look_at_matrix` ``(origin, target, up) -> (4, 4)`` — Mitsuba's
   camera convention (local +z forward, +y up, +x = up × forward, i.e. left);
   :func:`frame_from_z` ``(z)`` — a rotation (4×4) whose local +z is ``z``.
@@ -38,11 +41,12 @@ from __future__ import annotations
 import glob
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 from scipy.special import erf
 
-from lightcurves.targets import Material, Target
+from lightcurves.targets import Material, Part, Target, make_target
 
 __all__ = [
     "SUN_IRRADIANCE_W_M2",
@@ -57,6 +61,7 @@ __all__ = [
     "look_at_matrix",
     "frame_from_z",
     "ScenePoser",
+    "load_mesh_target",
 ]
 
 SUN_IRRADIANCE_W_M2 = 1361.0
@@ -301,3 +306,41 @@ class ScenePoser:
     def set_sensor(self, key: str, to_world) -> None:
         self.params[f"{key}.to_world"] = mi.Transform4f(np.asarray(to_world, dtype=float))
         self.params.update()
+
+
+def load_mesh_target(parts: dict, *, name: str = "mesh", scale: float = 1.0, density_kg_m3: float = 1.0) -> Target:
+    """Target from user mesh files: ``{part_name: (path, Material), ...}``.
+
+    Each file (OBJ or PLY, read with Mitsuba's loaders, so binary PLY works)
+    is one part with one material, in metres times ``scale``. Coincident
+    vertices are welded; the union of the parts must be closed. Sets Mitsuba's
+    variant (:func:`select_variant`) if none is set yet.
+    """
+    if mi.variant() is None:
+        select_variant()
+
+    if not parts:
+        raise ValueError("load_mesh_target: give at least one part {name: (path, Material)}")
+    built = []
+    for pname, spec in parts.items():
+        try:
+            path, mat = spec
+        except (TypeError, ValueError):
+            raise ValueError(f"part {pname!r}: expected (path, Material), got {spec!r}") from None
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"part {pname!r}: mesh file not found: {path}")
+        kind = path.suffix.lower().lstrip(".")
+        if kind not in ("obj", "ply"):
+            raise ValueError(f"part {pname!r}: mesh file must be .obj or .ply, got {path.name}")
+        try:
+            shape = mi.load_dict({"type": kind, "filename": str(path), "face_normals": True})
+        except Exception as e:  # Mitsuba raises RuntimeError for malformed files
+            raise ValueError(f"part {pname!r}: cannot read {path.name}: {str(e).splitlines()[0]}") from None
+        p = mi.traverse(shape)
+        V = np.array(p["vertex_positions"], dtype=float).reshape(-1, 3) * float(scale)
+        F = np.array(p["faces"], dtype=np.int64).reshape(-1, 3)
+        # Loaders split vertices at normal/uv seams: weld by position so the surface is closed.
+        Vw, inv = np.unique(np.round(V, 9), axis=0, return_inverse=True)
+        built.append(Part(pname, Vw, inv.reshape(-1)[F], mat))
+    return make_target(name, built, density_kg_m3, dict(files={k: str(v[0]) for k, v in parts.items()}, scale=scale))

@@ -15,8 +15,10 @@ Stable API (shared with ``perception``; DESIGN.md)
   ``k``, ``radius_m`` (bounding-sphere radius about the centre of mass).
 * :func:`get_target` ``(name, **params)`` — the registry (``TARGETS``); raises
   ``ValueError`` naming the known targets.
-* :func:`load_mesh_target` — user OBJ/PLY files, one file per part, each with
-  its own material.
+* User OBJ/PLY meshes become a :class:`Target` through
+  :func:`lightcurves.scene.load_mesh_target` (it needs Mitsuba's loaders; this
+  module does not import Mitsuba, and ``scene`` imports this one, never the
+  other way round).
 
 The target frame T
 ------------------
@@ -40,7 +42,6 @@ Properties*).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -57,7 +58,6 @@ __all__ = [
     "vespa",
     "box_wing",
     "sphere",
-    "load_mesh_target",
     "TARGETS",
     "get_target",
 ]
@@ -428,47 +428,6 @@ def sphere(radius_m: float = 1.0, albedo: float = 0.5, subdivisions: int = 5, de
     mat = Material("lambertian", diffuse_albedo=float(albedo), specular_albedo=0.0)
     part = Part("sphere", radius_m * u, f, mat, normals_T=u)
     return make_target("sphere", [part], density_kg_m3, dict(radius_m=radius_m, albedo=albedo))
-
-
-def load_mesh_target(parts: dict, *, name: str = "mesh", scale: float = 1.0, density_kg_m3: float = 1.0) -> Target:
-    """Target from user mesh files: ``{part_name: (path, Material), ...}``.
-
-    Each file (OBJ or PLY, read with Mitsuba's loaders, so binary PLY works)
-    is one part with one material, in metres times ``scale``. Coincident
-    vertices are welded; the union of the parts must be closed. Sets Mitsuba's
-    variant (:func:`lightcurves.scene.select_variant`) if none is set yet.
-    """
-    from lightcurves import scene  # lazy: only this loader needs Mitsuba (and scene sets it up)
-
-    mi = scene.mi
-    if mi.variant() is None:
-        scene.select_variant()
-
-    if not parts:
-        raise ValueError("load_mesh_target: give at least one part {name: (path, Material)}")
-    built = []
-    for pname, spec in parts.items():
-        try:
-            path, mat = spec
-        except (TypeError, ValueError):
-            raise ValueError(f"part {pname!r}: expected (path, Material), got {spec!r}") from None
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"part {pname!r}: mesh file not found: {path}")
-        kind = path.suffix.lower().lstrip(".")
-        if kind not in ("obj", "ply"):
-            raise ValueError(f"part {pname!r}: mesh file must be .obj or .ply, got {path.name}")
-        try:
-            shape = mi.load_dict({"type": kind, "filename": str(path), "face_normals": True})
-        except Exception as e:  # Mitsuba raises RuntimeError for malformed files
-            raise ValueError(f"part {pname!r}: cannot read {path.name}: {str(e).splitlines()[0]}") from None
-        p = mi.traverse(shape)
-        V = np.array(p["vertex_positions"], dtype=float).reshape(-1, 3) * float(scale)
-        F = np.array(p["faces"], dtype=np.int64).reshape(-1, 3)
-        # Loaders split vertices at normal/uv seams: weld by position so the surface is closed.
-        Vw, inv = np.unique(np.round(V, 9), axis=0, return_inverse=True)
-        built.append(Part(pname, Vw, inv.reshape(-1)[F], mat))
-    return make_target(name, built, density_kg_m3, dict(files={k: str(v[0]) for k, v in parts.items()}, scale=scale))
 
 
 #: Registry of parametric targets: name -> builder(**params).

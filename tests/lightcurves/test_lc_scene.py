@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from lightcurves import scene as S
-from lightcurves.targets import Material, Part, _box, get_target, load_mesh_target, make_target
+from lightcurves.scene import load_mesh_target
+from lightcurves.targets import Material, Part, _box, get_target, make_target
 
 
 def _ortho(M, res=8, spp=1):
