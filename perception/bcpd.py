@@ -275,6 +275,26 @@ def bcpd_rigid(
     Returns
     -------
     BCPDResult with ``model ≈ s R measured + t`` (eq. 4 of ``000_…``).
+
+    Examples
+    --------
+    A box-shaped model seen turned by 0.2 rad about z and shifted 0.1 m
+    along x; the registration recovers the rotation and maps the measured
+    points back onto the model:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> rng = np.random.default_rng(0)
+    >>> model = rng.uniform(-1, 1, (400, 3)) * [2.0, 1.0, 0.5]
+    >>> R_true = Rotation.from_rotvec([0.0, 0.0, 0.2]).as_matrix()
+    >>> measured = (model - [0.1, 0.0, 0.0]) @ R_true   # = R_trueᵀ (model - t)
+    >>> res = bcpd_rigid(measured, model, estimate_scale=False)
+    >>> res.converged
+    True
+    >>> bool(np.degrees(Rotation.from_matrix(res.R @ R_true.T).magnitude()) < 0.5)
+    True
+    >>> bool(np.allclose(res.apply(measured), model, atol=0.02))
+    True
     """
     X = _check_cloud("measured", measured)
     Y = _check_cloud("model", model)
