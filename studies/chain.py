@@ -183,7 +183,7 @@ def flat_metrics(truth: Truth, run, prefix: str, *, rmse_from_s: float | None = 
 def record_lightcurve(path: Path, rendered: RenderedPrior, recording_id: str) -> None:
     """``/lightcurve/...`` and ``/spectrum/...`` of ``lcnav lightcurve render --record`` at ``path``."""
     from lightcurves.render import flux_to_mag
-    from studies.lightcurve_cmd import write_lightcurve_recording
+    from studies.lightcurve_recording import write_lightcurve_recording
 
     write_lightcurve_recording(path, rendered.simulated.lightcurve, rendered.extracted, mag_true=flux_to_mag(rendered.simulated.flux_true_w_m2),
             recording_id=recording_id)

@@ -59,7 +59,19 @@ def _open_store(path: Path):
 def _time_frame(store, contents=None) -> pd.DataFrame:
     if TIMELINE not in [c.name for c in store.schema().index_columns()]:
         return pd.DataFrame({TIMELINE: pd.Series([], dtype="timedelta64[ns]")})
-    return store.reader(TIMELINE, contents=contents).to_pandas()
+    table = store.reader(TIMELINE, contents=contents).to_arrow_table()
+    # tensors (a spectrum's BarChart) are dense unions that pandas cannot hold; they are static
+    # data, never a time series, so they are left out here as export_series leaves out static data
+    keep = [name for name, field in zip(table.column_names, table.schema) if not _holds_union(field.type)]
+    return table.select(keep).to_pandas()
+
+
+def _holds_union(arrow_type) -> bool:
+    import pyarrow as pa
+
+    if pa.types.is_union(arrow_type):
+        return True
+    return any(_holds_union(arrow_type.field(i).type) for i in range(arrow_type.num_fields))
 
 
 def summarize_recording(path) -> RecordingSummary:

@@ -7,12 +7,9 @@
     lcnav lightcurve prior lc.ecsv [--json] [--record prior.rrd]
 
 Inputs are validated before anything is written; the ECSV and the recording
-are written atomically (:mod:`studies.io`). ``--record`` logs to rerun:
-``/lightcurve/mag``, ``/lightcurve/mag_true``, ``/lightcurve/geometry/*`` on
-the ``sim_time`` timeline (seconds since the first sample) and the spectra
-``/spectrum/dirty``, ``/spectrum/clean``, ``/spectrum/residual``,
-``/spectrum/window`` (amplitude against frequency) with the adopted rotation
-frequency ``/spectrum/rotation_frequency``.
+are written atomically (:mod:`studies.io`). ``--record`` writes the light-curve
+recording of :mod:`studies.lightcurve_recording` (curve, geometry, spectra,
+the extracted prior, and a viewer layout).
 """
 
 from __future__ import annotations
@@ -24,6 +21,7 @@ import numpy as np
 import typer
 
 from studies.io import atomic_path
+from studies.lightcurve_recording import write_lightcurve_recording
 
 lightcurve_app = typer.Typer(help="Synthetic light curves and spin priors.", no_args_is_help=True)
 
@@ -46,40 +44,6 @@ def _out_path(path: Path | None, suffix: str, flag: str) -> Path | None:
     if path.exists() and path.is_dir():
         raise ValueError(f"{flag} {str(path)!r} is a directory")
     return path
-
-
-def write_lightcurve_recording(path: Path, lc, prior, mag_true=None, recording_id: str | None = None) -> None:
-    """Log a light curve, its geometry and its spectra to a rerun recording at ``path`` (atomically).
-
-    ``recording_id`` defaults to ``lightcurve-<file stem>``.
-    """
-    import rerun as rr
-
-    t = lc.t_s
-    with atomic_path(path) as tmp:
-        rec = rr.RecordingStream("lcnav", recording_id=recording_id or f"lightcurve-{path.stem}")
-        rec.save(tmp)
-        idx = [rr.TimeColumn("sim_time", duration=t)]
-        rec.send_columns("/lightcurve/mag", indexes=idx, columns=rr.Scalars.columns(scalars=lc.mag))
-        if np.any(np.isfinite(lc.mag_err)):
-            rec.send_columns("/lightcurve/mag_err", indexes=idx, columns=rr.Scalars.columns(scalars=lc.mag_err))
-        if mag_true is not None:
-            rec.send_columns("/lightcurve/mag_true", indexes=idx, columns=rr.Scalars.columns(scalars=mag_true))
-        for name, values in (("phase_angle_deg", np.degrees(lc.phase_angle_rad)), ("range_km", lc.range_m / 1e3), ("elevation_deg", np.degrees(lc.elevation_rad))):
-            if np.all(np.isfinite(values)):
-                rec.send_columns(f"/lightcurve/geometry/{name}", indexes=idx, columns=rr.Scalars.columns(scalars=values))
-        spec = prior.spectrum
-        f = spec.frequency_hz
-        for name, values, colour in (("dirty", spec.dirty, (150, 150, 150)), ("clean", spec.clean, (30, 120, 220)), ("residual", spec.residual, (220, 80, 40))):
-            rec.log(f"/spectrum/{name}", rr.LineStrips2D([np.column_stack([f, 2.0 * np.abs(values)])], colors=[colour]), static=True)
-        fw = spec.window_frequency_hz
-        rec.log("/spectrum/window", rr.LineStrips2D([np.column_stack([fw, np.abs(spec.window)])]), static=True)
-        if prior.significant:
-            top = float(2.0 * np.abs(spec.clean).max())
-            rec.log("/spectrum/rotation_frequency", rr.LineStrips2D([[[prior.frequency_hz, 0.0], [prior.frequency_hz, top]]], colors=[(40, 180, 60)]), static=True)
-        rec.log("/spectrum/summary", rr.TextDocument(json.dumps(prior.to_dict(), indent=2), media_type="text/markdown"), static=True)
-        rec.flush()
-        rec.disconnect()
 
 
 def _validate_render(target: str, axis: str, rate_deg_s: float, duration: float, cadence: float, albedo: float | None, spp: int, resolution: int, pole_ra_dec: str | None):

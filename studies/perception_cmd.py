@@ -34,6 +34,7 @@ import numpy as np
 import typer
 
 from studies.io import atomic_path, write_json, write_table
+from studies.perception_recording import write_frame_recording
 
 perception_app = typer.Typer(help="Stereo frames, point clouds and BCPD pose measurements.", no_args_is_help=True)
 
@@ -84,25 +85,6 @@ def _validate_frames(target: str, range_m: float, resolution: int, spp: int, out
         raise ValueError(f"--spp must be samples per pixel within [1, 1024], got {spp}")
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--out must be a directory, {str(out)!r} is a file")
-
-
-def _record(path: Path, frame, left_u8, right_u8, cloud, model_C, registered_C) -> None:
-    """Write the frame's rerun recording atomically."""
-    import rerun as rr
-
-    with atomic_path(path) as tmp:
-        rec = rr.RecordingStream("lcnav", recording_id=f"perception-frames-{path.parent.name}")
-        rec.save(tmp)
-        rec.set_time("sim_time", duration=0.0)
-        rec.log("/camera/left/image", rr.Image(left_u8))
-        rec.log("/camera/right/image", rr.Image(right_u8))
-        rec.log("/camera/left/depth", rr.DepthImage(np.nan_to_num(frame.depth_left, nan=0.0).astype(np.float32), meter=1.0))
-        rec.log("/cloud/measured", rr.Points3D(cloud.points_C, colors=[(240, 200, 40)], radii=0.03))
-        rec.log("/cloud/model", rr.Points3D(model_C, colors=[(120, 120, 120)], radii=0.02))
-        if registered_C is not None:
-            rec.log("/cloud/registered", rr.Points3D(registered_C, colors=[(40, 160, 240)], radii=0.02))
-        rec.flush()
-        rec.disconnect()
 
 
 def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 512, spp: int = 16, estimate_error_deg: float = 5.0, estimate_error_m: float = 0.3, estimate_scale: bool = True, gamma: float = 0.1):
@@ -233,7 +215,7 @@ def frames(
         }
     )
     write_table(out / "cloud.parquet", table, csv=True)
-    _record(out / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C)
+    write_frame_recording(out / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C)
     write_json(out / "summary.json", summary)
     if as_json:
         typer.echo(json.dumps(summary, indent=2))

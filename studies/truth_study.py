@@ -38,11 +38,11 @@ from studies.config import ConfigError, Field, StudyConfig
 from studies.io import atomic_path
 from studies.recording import recording
 from studies.scenarios import SCENARIOS, get_scenario
-from studies.simulate_cmd import log_truth
 from studies.stats import describe
 from studies.sweep import RunSpec, make_specs
 from studies.tables import Table
 from studies.truth import simulate_truth
+from studies.truth_recording import log_truth
 
 TITLE = "Truth-model check: truth simulator vs the RK4 relative model (eq. 21 of 002), conservation, geometry"
 

@@ -1,0 +1,89 @@
+"""Every recording lcnav writes carries its viewer layout and holds what the layout shows.
+
+The light curve as relative flux (up = brighter) and magnitudes, spectra as bar charts over mHz;
+the truth rates and range; a stereo frame's images and clouds.
+"""
+
+from types import SimpleNamespace
+
+import numpy as np
+from rerun.chunk import RrdReader
+
+from lightcurves.prior import extract_spin_prior
+from studies.inspect_cmd import _open_store, export_series
+from studies.lightcurve_recording import write_lightcurve_recording
+from studies.perception_recording import write_frame_recording
+from studies.scenarios import get_scenario
+from studies.truth import simulate_truth
+from studies.truth_recording import record_truth
+from tests.lightcurves.test_lc_io_cli import make_lc
+from tests.rerun_cli import assert_rrd_verifies
+
+
+def _blueprint_views(path):
+    """The (origins, content queries) of the views in the recording's one blueprint."""
+    reader = RrdReader(path)
+    assert len(reader.blueprints()) == 1
+    origins, queries = set(), set()
+    for chunk in reader.stream(store=reader.blueprints()[0]):
+        cols = chunk.to_record_batch().to_pydict()
+        for o in cols.get("ViewBlueprint:space_origin", []):
+            origins.update(o)
+        for q in cols.get("ViewContents:query", []):
+            queries.update(q)
+    return origins, queries
+
+
+def test_lightcurve_recording_carries_its_layout_and_the_curve_as_flux(tmp_path):
+    lc = make_lc()
+    prior = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err)
+    path = tmp_path / "lc.rrd"
+    write_lightcurve_recording(path, lc, prior)
+    assert_rrd_verifies(path)
+    assert {"/lightcurve/relative_flux", "/lightcurve", "/lightcurve/geometry", "/spectrum/dirty", "/spectrum/clean",
+            "/spectrum/residual", "/spectrum/window", "/spectrum/summary"} <= _blueprint_views(path)[0]
+    df, skipped = export_series(path)
+    np.testing.assert_allclose(df["sim_time_s"], lc.t_s, atol=1e-9)
+    np.testing.assert_allclose(df["/lightcurve/mag"], lc.mag)
+    # brighter is up: relative flux is 10^(-0.4 (m - median m)), 1 at the median magnitude
+    flux = df["/lightcurve/relative_flux"].to_numpy()
+    np.testing.assert_allclose(flux, 10 ** (-0.4 * (lc.mag - np.median(lc.mag))), rtol=1e-12)
+    assert np.argmax(flux) == np.argmin(lc.mag)
+    # the spectra are static bar charts whose abscissa is the spectrum's frequency in mHz
+    _, _, store = _open_store(path)
+    table = store.reader(None, contents={"/spectrum/clean": ["BarChart:abscissa", "BarChart:values"]}).to_arrow_table()
+    abscissa = np.asarray(table.column("/spectrum/clean:BarChart:abscissa").to_pylist()[0][0]["buffer"])
+    values = np.asarray(table.column("/spectrum/clean:BarChart:values").to_pylist()[0][0]["buffer"])
+    np.testing.assert_allclose(abscissa, 1e3 * prior.spectrum.frequency_hz, rtol=1e-12)
+    np.testing.assert_allclose(values, 2 * np.abs(prior.spectrum.clean), rtol=1e-12)
+    # the extracted rotation frequency is where the clean spectrum peaks (within one bin)
+    assert abs(abscissa[np.argmax(values)] - 1e3 * prior.frequency_hz * prior.maxima_per_rotation) <= abscissa[1] - abscissa[0]
+
+
+def test_truth_recording_carries_its_layout_and_the_scenario_rates(tmp_path):
+    truth = simulate_truth(get_scenario("SC3"), 20.0, 1.0)
+    path = tmp_path / "truth.rrd"
+    record_truth(truth, path, seed=1)
+    assert_rrd_verifies(path)
+    _, queries = _blueprint_views(path)
+    assert {"/truth/w_ST_T/**", "/truth/w_T_T/**", "/truth/range_m/**", "/truth/**"} <= queries
+    df, _ = export_series(path, ["/truth/**"])
+    np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, 4:7], rtol=1e-12)
+    np.testing.assert_allclose(df["/truth/range_m"], np.linalg.norm(truth.x[:, 7:10], axis=1), rtol=1e-12)
+
+
+def test_frame_recording_carries_cameras_and_clouds(tmp_path):
+    rng = np.random.default_rng(3)
+    left, right = (rng.integers(0, 255, (24, 32), dtype=np.uint8) for _ in range(2))
+    frame = SimpleNamespace(depth_left=np.where(rng.uniform(size=(24, 32)) < 0.5, np.nan, 40.0))
+    cloud = SimpleNamespace(points_C=rng.normal(size=(50, 3)) + [0, 0, 40])
+    path = tmp_path / "run" / "frames.rrd"
+    path.parent.mkdir()
+    write_frame_recording(path, frame, left, right, cloud, model_C=rng.normal(size=(80, 3)))
+    assert_rrd_verifies(path)
+    origins, queries = _blueprint_views(path)
+    assert {"/camera/left", "/camera/right"} <= origins and "/cloud/**" in queries
+    _, _, store = _open_store(path)
+    table = store.reader("sim_time", contents={"/cloud/measured": ["Points3D:positions"]}).to_arrow_table()
+    np.testing.assert_allclose(np.asarray(table.column("/cloud/measured:Points3D:positions").to_pylist()[0]),
+                               cloud.points_C, rtol=1e-6)
