@@ -39,7 +39,7 @@ from estimators.prior import SpinPrior, prior_from_rate, tuning_for_prior
 from estimators.tuning import get_tuning
 from lightcurves.simulate import SimulatedLightCurve
 from studies.io import atomic_path
-from studies.metrics import GROUPS, evaluate, state_errors
+from studies.metrics import DEFAULT_THRESHOLDS, GROUPS, convergence_time, evaluate, state_errors
 from studies.scenarios import Scenario
 from studies.truth import Truth
 
@@ -280,5 +280,35 @@ def plot_errors(truth: Truth, run, path: Path, title: str) -> None:
         ax.set(ylabel=f"δ{g} ({UNITS[g]})", ylim=(-lim, lim))
         ax.legend(fontsize=7, ncol=3, loc="upper right")
     axes[0].set_title(f"{title}: error (solid) and ±3σ (dashed)")
+    axes[-1].set_xlabel("time (s)")
+    _save(fig, path)
+
+
+def plot_prior_comparison(truth: Truth, runs: dict, path: Path, title: str) -> None:
+    """Error magnitude per group of the same filter without and with the prior, on shared axes.
+
+    ``runs`` maps a label ("no prior", "prior: tuning + init") to a
+    :class:`estimators.navigation.NavigationRun`. Each panel is one group of
+    :mod:`studies.metrics` (state-based magnitude, log scale) with its
+    convergence threshold (grey) and each run's convergence time ``t_conv``
+    (a vertical line in the run's colour; none when it never converged).
+    """
+    plt = _pyplot()
+    t = truth.t - truth.t[0]
+    errors = {label: state_errors(run.x, truth.x) for label, run in runs.items()}
+    fig, axes = plt.subplots(len(GROUPS), 1, figsize=(8, 10), sharex=True, layout="constrained")
+    colours = ("tab:red", "tab:blue", "tab:green", "tab:purple")
+    for ax, g in zip(axes, GROUPS):
+        thr = DEFAULT_THRESHOLDS[g]
+        ax.axhline(thr, color="0.5", lw=1.0, ls="--", label=f"threshold {thr:.3g} {UNITS[g]}")
+        for (label, err), c in zip(errors.items(), colours):
+            m = np.maximum(err[g], 1e-12)
+            ax.semilogy(t, m, color=c, lw=0.9, label=label)
+            tc = convergence_time(t, err[g], thr)
+            if np.isfinite(tc):
+                ax.axvline(tc, color=c, lw=0.8, ls=":", label=f"t_conv {tc:.0f} s")
+        ax.set(ylabel=f"|δ{g}| ({UNITS[g]})")
+        ax.legend(fontsize=7, ncol=2, loc="upper right")
+    axes[0].set_title(f"{title}: error without and with the prior")
     axes[-1].set_xlabel("time (s)")
     _save(fig, path)

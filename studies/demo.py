@@ -16,7 +16,8 @@
    ``comparison.parquet``/``.csv``, ``summary.md``, ``runs.parquet``/``.csv``
    (every metric, state and filter based), ``prior.json``,
    ``lightcurve.ecsv``, figures ``lightcurve.png``, ``spectrum.png``,
-   ``errors_<run>.png`` and recordings ``lightcurve.rrd`` and ``<run>.rrd``
+   ``errors_<run>.png``, ``prior_vs_none_<filter>.png`` (both arms on
+   shared axes, thresholds and convergence times marked) and recordings ``lightcurve.rrd`` and ``<run>.rrd``
    (``<run>`` = ``ekf``, ``ekf_prior``, ``ukf``, ``ukf_prior``), each with its
    own recording id.
 
@@ -33,7 +34,8 @@ import numpy as np
 import pandas as pd
 import typer
 
-from studies.chain import ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_spectrum, record_lightcurve, record_run, render_prior
+from studies.chain import (ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
+                           record_lightcurve, record_run, render_prior)
 from lightcurves.io import to_timeseries
 from studies.io import atomic_path, write_json, write_table
 from studies.metrics import GROUPS
@@ -154,6 +156,9 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
         label = next(r["prior"] for r in rows if r["run"] == name)
         plot_errors(truth, run, out / f"errors_{name}.png", f"{run.filter.upper()} on {sc.name}, {label}")
         record_run(out / f"{name}.rrd", truth, run, meas, config.seed, name)
+    for f in config.filters:
+        arms = {ARM_LABELS[arm]: runs[f"{f}{suffix}"][0] for suffix, arm in DEMO_ARMS.items()}
+        plot_prior_comparison(truth, arms, out / f"prior_vs_none_{f}.png", f"{f.upper()} on {sc.name}")
     files = sorted(out.iterdir())
     return DemoResult(table, md, rendered, files, time.perf_counter() - started)
 

@@ -24,7 +24,8 @@ def demo_out(tmp_path_factory) -> Path:
 
 def test_files_exist(demo_out):
     expected = ["comparison.parquet", "comparison.csv", "summary.md", "runs.parquet", "runs.csv", "prior.json", "lightcurve.ecsv",
-                "lightcurve.png", "spectrum.png", "lightcurve.rrd", *(f"{r}.rrd" for r in RUNS), *(f"errors_{r}.png" for r in RUNS)]
+                "lightcurve.png", "spectrum.png", "lightcurve.rrd", *(f"{r}.rrd" for r in RUNS), *(f"errors_{r}.png" for r in RUNS),
+                "prior_vs_none_ekf.png", "prior_vs_none_ukf.png"]
     for name in expected:
         assert (demo_out / name).is_file() and (demo_out / name).stat().st_size > 0, name
     for png in demo_out.glob("*.png"):
