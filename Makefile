@@ -9,7 +9,7 @@ STAMP   := $(VENV)/.lcnav-installed
 export RERUN_ANALYTICS := 0
 export MPLBACKEND := Agg
 
-.PHONY: demo test bench system clean
+.PHONY: demo test bench readme system clean
 
 demo: $(STAMP)
 	$(VENV)/bin/lcnav demo --out runs/demo
@@ -19,6 +19,10 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m benchmarks
+
+# The README's demo section is the demo's own output (narrative and table), never typed by hand.
+readme: demo
+	$(PY) -m studies.readme_sync runs/demo README.md
 
 # Debian packages: libllvm19 (Mitsuba's llvm_* variants need libLLVM >= 16; without it lcnav runs
 # scalar_rgb) and mesa-vulkan-drivers (software Vulkan, so `lcnav inspect --screenshot` can draw a

@@ -13,7 +13,8 @@
    the code path of ``lcnav run``;
 4. prints the comparison table (convergence time and steady-state RMSE of
    §6 per component) and writes, under ``DIR`` (default ``runs/demo``):
-   ``comparison.parquet``/``.csv``, ``summary.md``, ``runs.parquet``/``.csv``
+   ``comparison.parquet``/``.csv``, ``summary.md``, ``narrative.txt`` (the lines it
+   printed), ``runs.parquet``/``.csv``
    (every metric, state and filter based), ``prior.json``,
    ``lightcurve.ecsv``, figures ``lightcurve.png``, ``spectrum.png``,
    ``errors_<run>.png``, ``prior_vs_none_<filter>.png`` (both arms on
@@ -37,7 +38,7 @@ import typer
 from studies.chain import (ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
                            record_lightcurve, record_run, render_prior)
 from lightcurves.io import to_timeseries
-from studies.io import atomic_path, write_json, write_table
+from studies.io import atomic_path, write_json, write_table, write_text
 from studies.metrics import GROUPS
 from studies.scenarios import get_scenario
 from studies.tables import Table, write_tables
@@ -87,8 +88,14 @@ def comparison_table(rows: list[dict]) -> pd.DataFrame:
 
 
 def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, progress: bool = True, echo=print) -> DemoResult:
-    """Everything ``lcnav demo`` does; ``echo`` prints the narrative lines."""
+    """Everything ``lcnav demo`` does; ``echo`` prints the narrative lines (also written to ``narrative.txt``)."""
     from tqdm import tqdm
+
+    narrative = []
+
+    def say(line: str) -> None:
+        narrative.append(line)
+        echo(line)
 
     started = time.perf_counter()
     out = Path(out)
@@ -98,7 +105,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     rng = np.random.default_rng(config.seed)
     measurement_seed = int(rng.integers(2**63))  # drawn first: independent of how many draws the render takes
 
-    echo(f"lcnav demo: rendering a light curve of {config.target} tumbling like {sc.name}'s target "
+    say(f"lcnav demo: rendering a light curve of {config.target} tumbling like {sc.name}'s target "
          f"({config.lightcurve_duration_s:g} s at {config.lightcurve_cadence_s:g} s, {config.render_resolution_px} px)")
     with tqdm(total=None, unit="sample", desc="render light curve", leave=False, disable=not progress) as bar:
 
@@ -112,11 +119,11 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     p = rendered.extracted
     if rendered.spin is None:
         raise RuntimeError(f"the rendered light curve gave no significant period ({p.decision}); the demo needs a prior")
-    echo(f"  truth rate {np.degrees(rendered.truth_rate_rad_s):.4f} °/s; WindowCLEAN: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s "
+    say(f"  truth rate {np.degrees(rendered.truth_rate_rad_s):.4f} °/s; WindowCLEAN: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s "
          f"(period {p.period_s:.2f} s, {p.maxima_per_rotation} maxima per rotation), error {100 * rendered.rate_error:+.3f} %")
-    echo(f"  {rendered.mapping}")
+    say(f"  {rendered.mapping}")
     w = rendered.spin.w_T_T_rad_s
-    echo(f"  prior ω_T = ({', '.join(f'{v:.5f}' for v in w)}) rad/s vs truth ω_T0 = ({', '.join(f'{v:.5f}' for v in sc.w_T0_T_rad_s)}) rad/s")
+    say(f"  prior ω_T = ({', '.join(f'{v:.5f}' for v in w)}) rad/s vs truth ω_T0 = ({', '.join(f'{v:.5f}' for v in sc.w_T0_T_rad_s)}) rad/s")
 
     truth = simulate_truth(sc, config.duration_s, config.dt_s)
     runs = {}
@@ -143,6 +150,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     out.mkdir(parents=True, exist_ok=True)
     md = write_tables(out, tables, heading="lcnav demo")
     write_table(out / "runs.parquet", full, csv=True)
+    write_text(out / "narrative.txt", "\n".join(narrative) + "\n")
     with atomic_path(out / "lightcurve.ecsv") as tmp:
         to_timeseries(rendered.simulated.lightcurve).write(tmp, format="ascii.ecsv", overwrite=True)
     write_json(out / "prior.json", {**p.to_dict(), "truth_rate_rad_s": rendered.truth_rate_rad_s, "rate_error": rendered.rate_error,

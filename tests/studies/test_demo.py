@@ -73,3 +73,23 @@ def test_prior_starts_the_filters_at_the_light_curve_rate(demo_out):
         # with the prior: the light curve's rate error (< 3 % of |ω_T|) plus R(q̂_TS,0) ω_S − R(q_TS,0) ω_S (≤ 2 |ω_S| ≈ 2.2e-3 rad/s)
         assert e0(with_prior, f"{f}_prior") < 0.03 * rate + 2.5e-3
         assert e0(with_prior, f"{f}_prior") < 0.1 * e0(without, f)
+
+
+def test_readme_demo_block_is_the_demo_output_and_has_its_columns(demo_out, tmp_path):
+    from studies.readme_sync import BEGIN, END, demo_block, markdown_table, splice
+
+    block = demo_block(demo_out)
+    narrative = (demo_out / "narrative.txt").read_text()
+    assert narrative.startswith("lcnav demo: rendering") and narrative.strip() in block
+    assert markdown_table((demo_out / "summary.md").read_text()) in block
+    readme = Path(__file__).resolve().parents[2] / "README.md"
+    text = readme.read_text()
+    # the README's block has the table the demo writes now (same header: columns, order, units)
+    shown = text.split(BEGIN)[1].split(END)[0]
+    assert markdown_table(shown).splitlines()[0] == markdown_table(block).splitlines()[0]
+    # splicing replaces only the block
+    spliced = splice(text, block)
+    assert spliced.split(BEGIN)[0] == text.split(BEGIN)[0] and spliced.split(END)[1] == text.split(END)[1]
+    assert spliced.split(BEGIN)[1].split(END)[0] == "\n" + block
+    with pytest.raises(ValueError, match="exactly one"):
+        splice(text.replace(END, ""), block)
