@@ -23,3 +23,19 @@ def assert_rrd_verifies(*paths) -> None:
     assert paths, "no .rrd file to verify"
     res = rerun("rrd", "verify", *paths)
     assert res.returncode == 0, res.stderr
+
+
+def blueprint_views(path) -> tuple[set, set]:
+    """The (space origins, content queries) of the views in the one blueprint stored in the ``.rrd`` at ``path``."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(path)
+    assert len(reader.blueprints()) == 1, f"{path} holds {len(reader.blueprints())} blueprints, expected 1"
+    origins, queries = set(), set()
+    for chunk in reader.stream(store=reader.blueprints()[0]):
+        cols = chunk.to_record_batch().to_pydict()
+        for o in cols.get("ViewBlueprint:space_origin", []):
+            origins.update(o)
+        for q in cols.get("ViewContents:query", []):
+            queries.update(q)
+    return origins, queries

@@ -7,7 +7,6 @@ the truth rates and range; a stereo frame's images and clouds.
 from types import SimpleNamespace
 
 import numpy as np
-from rerun.chunk import RrdReader
 
 from lightcurves.prior import extract_spin_prior
 from studies.inspect_cmd import _open_store, export_series
@@ -17,21 +16,7 @@ from studies.scenarios import get_scenario
 from studies.truth import simulate_truth
 from studies.truth_recording import record_truth
 from tests.lightcurves.test_lc_io_cli import make_lc
-from tests.rerun_cli import assert_rrd_verifies
-
-
-def _blueprint_views(path):
-    """The (origins, content queries) of the views in the recording's one blueprint."""
-    reader = RrdReader(path)
-    assert len(reader.blueprints()) == 1
-    origins, queries = set(), set()
-    for chunk in reader.stream(store=reader.blueprints()[0]):
-        cols = chunk.to_record_batch().to_pydict()
-        for o in cols.get("ViewBlueprint:space_origin", []):
-            origins.update(o)
-        for q in cols.get("ViewContents:query", []):
-            queries.update(q)
-    return origins, queries
+from tests.rerun_cli import assert_rrd_verifies, blueprint_views
 
 
 def test_lightcurve_recording_carries_its_layout_and_the_curve_as_flux(tmp_path):
@@ -41,7 +26,7 @@ def test_lightcurve_recording_carries_its_layout_and_the_curve_as_flux(tmp_path)
     write_lightcurve_recording(path, lc, prior)
     assert_rrd_verifies(path)
     assert {"/lightcurve/relative_flux", "/lightcurve", "/lightcurve/geometry", "/spectrum/dirty", "/spectrum/clean",
-            "/spectrum/residual", "/spectrum/window", "/spectrum/summary"} <= _blueprint_views(path)[0]
+            "/spectrum/residual", "/spectrum/window", "/spectrum/summary"} <= blueprint_views(path)[0]
     df, skipped = export_series(path)
     np.testing.assert_allclose(df["sim_time_s"], lc.t_s, atol=1e-9)
     np.testing.assert_allclose(df["/lightcurve/mag"], lc.mag)
@@ -65,7 +50,7 @@ def test_truth_recording_carries_its_layout_and_the_scenario_rates(tmp_path):
     path = tmp_path / "truth.rrd"
     record_truth(truth, path, seed=1)
     assert_rrd_verifies(path)
-    _, queries = _blueprint_views(path)
+    _, queries = blueprint_views(path)
     assert {"/truth/w_ST_T/**", "/truth/w_T_T/**", "/truth/range_m/**", "/truth/**"} <= queries
     df, _ = export_series(path, ["/truth/**"])
     np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, 4:7], rtol=1e-12)
@@ -81,7 +66,7 @@ def test_frame_recording_carries_cameras_and_clouds(tmp_path):
     path.parent.mkdir()
     write_frame_recording(path, frame, left, right, cloud, model_C=rng.normal(size=(80, 3)))
     assert_rrd_verifies(path)
-    origins, queries = _blueprint_views(path)
+    origins, queries = blueprint_views(path)
     assert {"/camera/left", "/camera/right"} <= origins and "/cloud/**" in queries
     _, _, store = _open_store(path)
     table = store.reader("sim_time", contents={"/cloud/measured": ["Points3D:positions"]}).to_arrow_table()

@@ -11,7 +11,7 @@ from studies.inspect_cmd import export_series
 from studies.recording import recording
 from studies.stats import bootstrap_interval, describe, proportion_interval, t_interval
 from studies.tables import Table, to_markdown, write_tables
-from tests.rerun_cli import assert_rrd_verifies
+from tests.rerun_cli import assert_rrd_verifies, blueprint_views
 
 
 
@@ -91,8 +91,6 @@ def test_tables_write_parquet_csv_and_markdown(tmp_path):
 
 
 def test_blueprint_recording_verifies_and_holds_estimates_with_3sigma(tmp_path):
-    from rerun.chunk import RrdReader
-
     t = np.arange(0.0, 20.0, 1.0)
     truth = np.column_stack([np.sin(t), np.cos(t), t])
     est = truth + 0.01
@@ -104,16 +102,8 @@ def test_blueprint_recording_verifies_and_holds_estimates_with_3sigma(tmp_path):
         send_truth(rec, "w_ST_T", t, truth)
         send_estimate(rec, "ekf", "w_ST_T", t, est, truth=truth, sigma=sigma)
     assert_rrd_verifies(path)
-    reader = RrdReader(path)
-    assert len(reader.blueprints()) == 1
     # the stored layout: views on truth vs estimate, errors ±3σ, gates, light curve, spectrum, cameras, clouds
-    queries, origins = set(), set()
-    for chunk in reader.stream(store=reader.blueprints()[0]):
-        cols = chunk.to_record_batch().to_pydict()
-        for q in cols.get("ViewContents:query", []):
-            queries.update(q)
-        for o in cols.get("ViewBlueprint:space_origin", []):
-            origins.update(o)
+    origins, queries = blueprint_views(path)
     assert {"/truth/w_ST_T/**", "/estimate/ekf/w_ST_T/**", "/estimate/ukf/w_ST_T/**", "/cloud/**"} <= queries
     assert {"/estimate/ekf/error/w_ST_T", "/estimate/ukf/error/w_ST_T", "/gate", "/lightcurve", "/spectrum",
             "/camera/left", "/camera/right"} <= origins
