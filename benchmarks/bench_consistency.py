@@ -25,8 +25,10 @@ from studies.truth import simulate_truth
 N_RUNS = 30
 DURATION_S = 300.0
 GATE_CONFIDENCE = 0.99
-#: (scenario, tuning): the default ``lcnav run`` tuning (``general``), the scenario's own, ``Q_d = 0``, and ``Q_d = 0`` after a settling phase.
-CASES = [(sc, t) for sc, own in (("SC1", "sc1"), ("SC3", "sc3")) for t in ("general", own, "consistent", "settled")]
+#: (scenario, tuning): the default ``lcnav run`` tuning (``general``, KF_gen, conservative), the scenario's own, and
+#: ``settled`` (settling phase, then process noise on the rate and ``k`` only). ``consistent`` (``Q_d = 0``) is left
+#: out to keep the wall time down: from the default ``P_0`` it diverges (mean NEES/dof 420 EKF SC1, ~1e13 SC3; 2026-11-24).
+CASES = [(sc, t) for sc, own in (("SC1", "sc1"), ("SC3", "sc3")) for t in ("general", own, "settled")]
 FILTERS = ("ekf", "ukf")
 
 
