@@ -22,9 +22,11 @@ points on the order-of-magnitude grid of Algorithm 1 (faster spin → larger
 rate and velocity noise); the tuning search of the studies issue replaces
 them. They are *conservative on purpose*: the truth has no process noise, so
 any ``Q_d`` inflates ``P``. Measured from the default ``P_0`` (30 runs, 300 s,
-after 60 s; ``python -m benchmarks consistency``): ``general`` (KF_gen, the
-default of ``lcnav run``) has a mean NEES/dof of 0.46 on SC1 and 0.77 on SC3,
-below its 95 % band on every step.
+after 60 s; ``python -m benchmarks consistency``): ``general`` (KF_gen of the
+tuning study, the no-prior arm of the demo and the chain study) has a mean
+NEES/dof of 0.46 on SC1 and 0.77 on SC3, below its 95 % band on every step.
+The default of ``lcnav run`` without a prior is ``settled`` (below), the
+tuning closest to consistent.
 
 ``consistent`` is ``Q_d = 0``: the truth is torque-free and Keplerian and
 the filters' model matches it to 1e-7 m per step
