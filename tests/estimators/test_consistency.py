@@ -173,12 +173,15 @@ def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name)
 
 def _assert_not_overconfident(r):
     """Mean NEES/dof under the upper 95 % bound of a 30-run mean (the time average only narrows it), not below 0.6;
-    NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 % on both sides."""
+    mean NIS/dof under the upper 95 % bound of all the innovations after the settling time (3 dof each, white for a
+    consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
     from scipy.stats import chi2
 
     n = r["runs"] * r["dof"]
     assert 0.6 <= r["nees_per_dof"] <= chi2.ppf(0.975, n) / n
+    n_nis = 3 * r["runs"] * int(r["duration_s"] - r["settling_s"])  # one measurement per second
     for s in ("attitude", "position"):
+        assert r[f"nis_{s}_per_dof"] <= chi2.ppf(0.975, n_nis) / n_nis
         assert r[f"nis_{s}_in_band"] >= 0.9
         assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
 
