@@ -25,8 +25,10 @@ from studies.truth import simulate_truth
 N_RUNS = 30
 DURATION_S = 300.0
 GATE_CONFIDENCE = 0.99
-#: (scenario, tuning): the default ``lcnav run`` tuning (``general``), the scenario's own, ``Q_d = 0``, and ``Q_d = 0`` after a settling phase.
-CASES = [(sc, t) for sc, own in (("SC1", "sc1"), ("SC3", "sc3")) for t in ("general", own, "consistent", "settled")]
+#: (scenario, tuning): the default of ``lcnav run`` (``settled``: settling phase, then process noise on the rate and
+#: ``k`` only), the conservative KF_gen of the tuning study (``general``) and the scenario's own. ``consistent`` (``Q_d = 0``) is left
+#: out to keep the wall time down: from the default ``P_0`` it diverges (mean NEES/dof 420 EKF SC1, ~1e13 SC3; 2026-11-24).
+CASES = [(sc, t) for sc, own in (("SC1", "sc1"), ("SC3", "sc3")) for t in ("settled", "general", own)]
 FILTERS = ("ekf", "ukf")
 
 
@@ -57,16 +59,18 @@ def run() -> str:
         "worst run's. NIS (3 dof) likewise per source. Gate: rate of measurements above the one-sided "
         f"{100 * GATE_CONFIDENCE:g} % bound (rejected; nominal {nominal:g} %) and below the lower two-sided bound "
         f"(counted, never rejected; nominal {nominal / 2:g} %), with Wilson 95 % intervals. Issue 12's criteria: "
-        "≥ 90 % in band, gate rates within 2× nominal. A negative NEES/dof means a diverged run whose `P` lost "
+        "≥ 90 % in band, gate rates within 2× nominal. `settled` is the default of `lcnav run`; `general` (KF_gen of the "
+        "tuning study) is conservative on purpose. A negative NEES/dof means a diverged run whose `P` lost "
         "positive definiteness.",
         "",
-        "| scenario | tuning | filter | dof | NEES in band (%) | NEES/dof [95 % CI] | worst run NEES/dof | NIS att in band (%) | NIS pos in band (%) | NIS att/dof | NIS pos/dof | gate att rejected (%) | gate pos rejected (%) | NIS att low (%) | NIS pos low (%) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| scenario | tuning | filter | dof | NEES in band (%) | NEES in band from t = 1 s (%) | NEES/dof [95 % CI] | worst run NEES/dof | NIS att in band (%) | NIS pos in band (%) | NIS att/dof | NIS pos/dof | gate att rejected (%) | gate pos rejected (%) | NIS att low (%) | NIS pos low (%) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r['scenario']} | {r['tuning']} | {r['filter'].upper()} | {r['dof']} | {100 * r['nees_in_band']:.0f} "
-            f"(below {100 * r['nees_below']:.0f}, above {100 * r['nees_above']:.0f}) | {_ci(r, 'nees_per_dof')} | "
+            f"(below {100 * r['nees_below']:.0f}, above {100 * r['nees_above']:.0f}) | {100 * r['nees_in_band_from_start']:.0f} | "
+            f"{_ci(r, 'nees_per_dof')} | "
             f"{r['nees_per_dof_worst_run']:.3g} | {100 * r['nis_attitude_in_band']:.0f} | {100 * r['nis_position_in_band']:.0f} | "
             f"{_ci(r, 'nis_attitude_per_dof')} | {_ci(r, 'nis_position_per_dof')} | {_pct(r, 'gate_attitude_rejected')} | "
             f"{_pct(r, 'gate_position_rejected')} | {_pct(r, 'nis_attitude_low')} | {_pct(r, 'nis_position_low')} |"

@@ -24,7 +24,15 @@ points ``σ_i`` of ``P`` (as in :mod:`estimators.ukf`), the residuals
 zero, so a second-order bias counts too). It scales as ``P²`` and vanishes
 once the filter has converged; from the default ``P_0`` (0.1 rad/s on the
 rate) the first-order ``F P Fᵀ`` misses terms like ``2 δω × δv`` (~1 m/s²)
-and the EKF diverges without it.
+and the EKF diverges without it. Two things measured on SC3 (issue 12) and
+left out: the sigma points lie along the columns of ``L`` (``P = L Lᵀ``), so a
+bilinear term such as ``2 δω × δv`` is zero at every one of them and its
+variance is missed, but adding the exact Gaussian second-order covariance
+(``½ tr(G_i P G_j P)`` from ``n(n − 1)`` extra points) made both filters
+diverge more often (the larger ``P`` gives larger gains along the curved
+``k1 − k2`` direction) at ~10 ms per step; and points at ``±√3 σ``
+(``κ = 3 − n``, the Gaussian's fourth moment along each axis) shrink
+``Q_lin`` by ``n/3`` and the EKF's NIS left its band (NIS/dof 3.5–10).
 
 filterpy's ``ExtendedKalmanFilter`` is not used: it keeps ``x`` and ``P`` of
 the same size, predicts with ``x = F x`` and updates with ``x += K y``, none of

@@ -9,7 +9,13 @@ Predict:
 
 1. sigma points of the error ``σ_i`` from ``P`` (filterpy's
    ``MerweScaledSigmaPoints``, default ``α = 1, β = 2, κ = 0``: all weights
-   non-negative, so the covariance stays positive semi-definite with 14 states);
+   non-negative, so the covariance stays positive semi-definite with 14 states;
+   measured with the ``settled`` tuning from the default ``P_0``, 30 runs, issue 12:
+   a narrower spread is over-confident — ``α = 0.5`` mean NEES/dof 1.28 on SC3,
+   1.23 on SC1; ``κ = 3 − n`` 1.56 on SC3 — and a wider one conservative on SC1
+   (``κ = 3``: 0.88, ``κ = 6``: 0.83) while it varies with the seeds on SC3
+   (``κ = 3``: 0.99 on seeds 1000–1029, 0.87 on 2000–2029), against 0.94
+   (SC1) and 1.04 / 0.91 (SC3) with ``κ = 0``);
 2. ``χ_i = x̂ ⊞ σ_i`` — quaternion sigma points ``δq(δp_i) ⊗ q̂``;
 3. each ``χ_i`` through eq. 21 (the numba RK4, all at once);
 4. back to errors about the propagated centre, ``δx_i = χ_i⁺ ⊟ χ_0⁺``

@@ -106,7 +106,7 @@ def run(
     prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis."),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis)."),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}."),
-    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'general'."),
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'."),
     p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states)."),
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise)."),
     runs: int = typer.Option(1, help="Monte-Carlo runs (seeds seed..seed+runs-1)."),
@@ -178,7 +178,7 @@ def run(
             spin = SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
         else:
             spin = SpinPrior.from_truth(w_true, prior_error)
-    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "general")
+    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
     tun = get_tuning(tuning_name)
     P0 = tun.P_0
     if p0_diag is not None:

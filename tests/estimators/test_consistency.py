@@ -152,14 +152,18 @@ def default_p0_runs(truth):
     return get
 
 
+#: The tuning ``lcnav run`` uses without a prior (studies.run_cmd).
+DEFAULT_TUNING = "settled"
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 12, open: from the default P_0 (0.1 rad/s on the rate, 2 m/s, 0.3 on k) no shipped "
-                   "tuning is consistent; measured in benchmarks/RESULTS.md (consistency)")
+@pytest.mark.xfail(strict=True, reason="issue 12, open: from the default P_0 (0.1 rad/s on the rate, 2 m/s, 0.3 on k) the default "
+                   "tuning's NEES is in band on 34-86 % of the steps (300 s), not 90 %; benchmarks/RESULTS.md (consistency)")
 @pytest.mark.parametrize("scenario", ["SC1", "SC3"])
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name):
     """NEES and NIS in their 95 % band on ≥ 90 % of the steps after the settling time, gate rates within 2× nominal."""
-    r = default_p0_runs(scenario, name, "general")
+    r = default_p0_runs(scenario, name, DEFAULT_TUNING)
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
     assert r["nees_in_band"] >= 0.9
     for s in ("attitude", "position"):
@@ -167,18 +171,39 @@ def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name)
         assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["ekf", "ukf"])
-def test_settled_tuning_is_consistent_on_sc1_from_the_default_p0(default_p0_runs, name):
-    """``settled`` on SC1 from the default ``P_0``: NIS in band, gates at their nominal rate, NEES within 35 %.
+def _assert_not_overconfident(r):
+    """Mean NEES/dof under the upper 95 % bound of a 30-run mean (the time average only narrows it), not below 0.6;
+    mean NIS/dof under the upper 95 % bound of all the innovations after the settling time (3 dof each, white for a
+    consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
+    from scipy.stats import chi2
 
-    Without its settling phase (``consistent``, ``Q_d = 0``) the same runs have a
-    mean NEES/dof of 420 (EKF) and 2.9 (UKF) and the EKF's gates reject ~10 %;
-    ``general`` is at 0.46 (conservative). Measured at 300 s: EKF 1.19, UKF 0.91.
-    """
-    r = default_p0_runs("SC1", name, "settled")
-    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
-    assert 0.75 <= r["nees_per_dof"] <= 1.35
+    n = r["runs"] * r["dof"]
+    assert 0.6 <= r["nees_per_dof"] <= chi2.ppf(0.975, n) / n
+    n_nis = 3 * r["runs"] * int(r["duration_s"] - r["settling_s"])  # one measurement per second
     for s in ("attitude", "position"):
+        assert r[f"nis_{s}_per_dof"] <= chi2.ppf(0.975, n_nis) / n_nis
         assert r[f"nis_{s}_in_band"] >= 0.9
         assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("scenario", "name"), [("SC1", "ekf"), ("SC1", "ukf"), ("SC3", "ukf")])
+def test_settled_tuning_from_the_default_p0(default_p0_runs, scenario, name):
+    """``settled`` from the default ``P_0``: not over-confident, NIS in band, gates at their nominal rate.
+
+    Measured at 120 s: mean NEES/dof 0.66 (SC1 EKF), 0.76 (SC1 UKF), 0.89 (SC3 UKF); NIS 95–98 % in band; gates
+    0.8–1.0 %. With ``Q_d = 0`` after the settling phase (the tuning before issue 12's process noise on the rate
+    and ``k``) the SC3 UKF's mean NEES/dof was 87 at 300 s (``k`` run off along ``(1, −1)``, estimators.tuning).
+    """
+    r = default_p0_runs(scenario, name, "settled")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    _assert_not_overconfident(r)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 12, open: the EKF on SC3 from the default P_0 is over-confident in some runs "
+                   "with every tuning tried (settled: mean NEES/dof 3.6, worst run 79, position NIS 71 % in band at 120 s)")
+def test_settled_tuning_ekf_sc3_from_the_default_p0(default_p0_runs):
+    r = default_p0_runs("SC3", "ekf", "settled")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    _assert_not_overconfident(r)
