@@ -6,8 +6,9 @@ half-written table, light curve or recording behind.
 
 A command that fills an output folder does it inside :func:`output_folder`:
 
-* a lock (``fcntl.flock`` on ``OUT/.lcnav.lock``, non-blocking): a second
-  lcnav writing to the same folder is refused at once, naming the holder's pid;
+* a lock (``fcntl.flock`` on ``OUT/.lcnav.lock``, non-blocking, the file removed
+  on release): a second lcnav writing to the same folder is refused at once,
+  naming the holder's pid;
 * under the lock, stale temporary files of a killed run (``.NAME.XXXX.tmp``,
   ``.lcnav-stage-*``) are removed and the completion marker is taken away;
 * the command writes into a private staging folder (or, for a resumable study,
@@ -155,25 +156,40 @@ class FolderBusy(ValueError):
 
 @contextlib.contextmanager
 def folder_lock(out: Path) -> Iterator[None]:
-    """Hold ``OUT/.lcnav.lock`` (non-blocking ``flock``); FolderBusy naming the holder's pid otherwise."""
-    fd = os.open(out / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
+    """Hold ``OUT/.lcnav.lock`` (non-blocking ``flock``); FolderBusy naming the holder's pid otherwise.
+
+    The lock file holds the holder's pid and is removed on release. A waiter
+    that opened the file just before it was removed would lock a file no one
+    else sees, so after locking the inode is compared with the path's and the
+    attempt repeated if they differ (the usual lock-file protocol).
+    """
+    path = out / LOCK_FILE
+    for _ in range(100):
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as e:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
             if e.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                 raise
-            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
             raise FolderBusy(f"--out {str(out)!r}: another lcnav is writing to it (pid {holder}); expected a folder no other lcnav is using "
                              "(wait for it to finish or choose another --out)") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # locked a lock file that its holder removed meanwhile: try the new one
+    else:  # pragma: no cover - 100 lost races in a row
+        raise FolderBusy(f"--out {str(out)!r}: could not take its lock; expected a folder no other lcnav is using")
+    try:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-        try:
-            yield
-        finally:
-            os.ftruncate(fd, 0)
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        yield
     finally:
+        path.unlink(missing_ok=True)  # still under the lock: a waiter sees no file or a new one
         os.close(fd)
 
 
@@ -223,8 +239,7 @@ def output_folder(out, command: str, *, staged: bool = True, check=None) -> Iter
                     shutil.rmtree(stage, ignore_errors=True)
     finally:
         if not ok and created:
-            # a folder this command created holds nothing but its lock: remove it again
-            (out / LOCK_FILE).unlink(missing_ok=True)
+            # a folder this command created and left empty is removed again
             for d in [out / "runs", *created]:
                 with contextlib.suppress(OSError):
                     d.rmdir()

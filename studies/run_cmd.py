@@ -199,8 +199,8 @@ def run(
         if np.any(d <= 0):
             v.fail("--p0-diag", p0_diag, "14 variances > 0 (P_0 positive definite)")
         P0 = np.diag(d)
+    meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
     tr = simulate_truth(sc, duration, dt)
-    meas = _read_measurements(measurements, (float(tr.t[0]), float(tr.t[-1]))) if measurements is not None else None
     if spin is None and prior != "none":
         spin = SpinPrior.from_truth(tr.target[0, 10:13], prior_error)
     tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "general")
