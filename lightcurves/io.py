@@ -99,12 +99,19 @@ def _plain(obj):
 
 
 def _column(table: Table, name: str, unit, n: int) -> np.ndarray:
+    """Column ``name`` in ``unit`` as floats (NaN if absent); BadSeries for missing cells, text or a wrong unit."""
     if name not in table.colnames:
         return _nan(n)
     col = table[name]
-    if getattr(col, "unit", None) is not None and unit is not None:
-        return np.asarray(u.Quantity(col).to_value(unit), dtype=float)
-    return np.asarray(col, dtype=float)
+    mask = np.ma.getmaskarray(col)
+    if mask.any():
+        raise BadSeries(f"light-curve column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a number in every row")
+    try:
+        if getattr(col, "unit", None) is not None and unit is not None:
+            return np.asarray(u.Quantity(col).to_value(unit), dtype=float)
+        return np.asarray(col, dtype=float)
+    except (ValueError, TypeError, u.UnitsError) as e:
+        raise BadSeries(f"light-curve column '{name}' ({type(e).__name__}: {str(e).splitlines()[0][:100]}); expected numbers in {unit}") from None
 
 
 def from_table(table: Table) -> LightCurve:
@@ -182,6 +189,19 @@ def merge_duplicate_times(t, mag, mag_err=None):
     return keys, m, (None if mag_err is None else e), int(t.size - keys.size)
 
 
+def _first_bad_time(cells: list[str], time_format: str | None) -> str:
+    """Which cell of a time column failed to parse (for the message), e.g. ``row 3 holds 'nan'``."""
+    for i, c in enumerate(cells):
+        try:
+            if _DECIMAL.match(c):
+                Time(float(c), format=time_format or "unix", scale="utc")
+            else:
+                Time(c, format="isot", scale="utc")
+        except (ValueError, TypeError):
+            return f"row {i + 1} holds {c[:40]!r}"
+    return "mixes ISO 8601 text and numbers"
+
+
 def read_csv(path, time_format: str | None = None) -> LightCurve:
     """An observer's CSV with a header ``time, mag[, mag_err]``.
 
@@ -235,7 +255,8 @@ def read_csv(path, time_format: str | None = None) -> LightCurve:
     except (ValueError, TypeError) as e:
         if isinstance(e, BadSeries):
             raise
-        raise BadSeries(f"{path.name}: column 'time' is not ISO 8601 UTC or numeric ({str(e)[:120]}); expected e.g. 2024-03-21T20:00:00.5 or seconds") from None
+        raise BadSeries(f"{path.name}: column 'time' {_first_bad_time(cells, time_format)}; expected ISO 8601 UTC like "
+                        f"2024-03-21T20:00:00.5 or decimal {time_format or 'seconds'} in every row") from None
     t_s = (time - time[0]).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
         k = int(np.flatnonzero(np.diff(t_s) < 0)[0])

@@ -36,6 +36,8 @@ from studies import combina_cmd; combina_cmd.register(app)  # noqa: E402,E702
 from studies import perception_cmd; perception_cmd.register(app)  # noqa: E402, E702
 from studies import demo; demo.register(app)  # noqa: E402,E702
 
+from studies.sweep import SweepError  # noqa: E402
+
 #: Exceptions that mean "the user's input is wrong": one line, exit 2. (OSError covers an unwritable
 #: or full output folder, a name too long, a permission denied.)
 USER_ERRORS = (ValueError, KeyError, OSError)
@@ -91,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     except USER_ERRORS as e:
         print(f"lcnav: error: {one_line(_message(e))}", file=sys.stderr)
         return 2
+    except SweepError as e:  # some runs failed (their errors named); the others are stored for a re-run
+        print(f"lcnav: error: {one_line(e)}", file=sys.stderr)
+        return 1
     except MemoryError:
         print("lcnav: error: out of memory; expected smaller sizes (fewer samples, runs or pixels)", file=sys.stderr)
         return 1

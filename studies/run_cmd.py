@@ -80,7 +80,7 @@ def _read_measurements(path: Path, t_span: tuple[float, float]):
     for c in MEASUREMENT_COLUMNS:
         col = df[c]
         if col.dtype.kind not in "fiu":
-            bad = next(x for x in col if not isinstance(x, int | float))
+            bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
             raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
     a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))

@@ -136,8 +136,12 @@ def check_workers(workers: int | None) -> None:
         check_count("--workers", workers, 1, MAX_WORKERS)
 
 
+#: How long a ``--scheduler`` has to answer, s.
+CONNECT_TIMEOUT_S = 20.0
+
+
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float = 20.0):
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float | None = None):
     """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes.
 
     An unreachable scheduler is bad input: ValueError naming the address.
@@ -146,11 +150,12 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
 
     check_scheduler(scheduler)
     check_workers(workers)
+    connect_timeout_s = CONNECT_TIMEOUT_S if connect_timeout_s is None else connect_timeout_s
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__})") from None
+            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}); expected a running scheduler at that address") from None
         with client:
             yield client
         return

@@ -15,6 +15,7 @@ command hang or exhaust memory (e.g. ``--rate-hz 1e6`` or ``--duration 1e300``).
 
 import math
 import os
+import re
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -27,6 +28,8 @@ MAX_SEED = 2**63 - 1
 MAX_INPUT_BYTES = 256 * 2**20
 #: Longest text option (names, patterns).
 MAX_TEXT = 1000
+#: A decimal number as people write it (no hex, no ``1_0``, no ``nan``/``inf``).
+DECIMAL = re.compile(r"^\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$")
 
 
 class InputError(ValueError):
@@ -56,11 +59,11 @@ def _interval(lo, hi, lo_open: bool, hi_open: bool) -> str:
 def check_number(what: str, value, lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False, unit: str = "") -> float:
     """``value`` as a finite float within the interval; InputError otherwise."""
     expected = f"a finite number within {_interval(lo, hi, lo_open, hi_open)}{' ' + unit if unit else ''}"
-    if isinstance(value, bool):
-        fail(what, value, expected)
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        fail(what, value, expected)  # text, lists, None: not numbers (a JSON "0.1" is not 0.1)
     try:
         v = float(value)
-    except (TypeError, ValueError, OverflowError):
+    except OverflowError:  # an int beyond the float range
         fail(what, value, expected)
     if not math.isfinite(v) or v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi):
         fail(what, value, expected)
