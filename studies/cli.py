@@ -64,8 +64,11 @@ def _one_line_warnings():
     def show(message, category, filename, lineno, file=None, line=None):
         print(f"lcnav: warning: {one_line(message)}", file=sys.stderr)
 
+    from lightcurves.io import DuplicateTimesWarning
+
     with warnings.catch_warnings():
         warnings.showwarning = show
+        warnings.simplefilter("always", DuplicateTimesWarning)  # every command that merges rows says so, not only the first
         yield
 
 

@@ -303,3 +303,11 @@ def test_killed_study_folder_is_incomplete_and_resumes(quick_truth, tmp_path, ca
     assert main(["study", "truth", "--quick", "--workers", "1", "--out", str(out)]) == 0
     assert "1 runs executed" in capsys.readouterr().out
     assert sio.is_complete(out) and not (run_dirs[1] / ".run.rrd.k1LL3d00.tmp").exists()
+
+
+def test_duplicate_times_merge_with_one_warning_line(tmp_path, capsys):
+    path = light_curve_csv(tmp_path / "lc.csv", "29,9.5\n29,9.7\n")
+    for _ in range(2):  # said on every run, not only the first of the process
+        code, err = run_cli(capsys, ["lightcurve", "prior", path])
+        assert code == 0 and err == ["lcnav: warning: lc.csv: 2 row(s) share a time with another row; merged each group into one sample, "
+                                     "the weighted mean in magnitudes (equal weights (no mag_err))"]
