@@ -192,7 +192,6 @@ def run(
             raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
         w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
         spin = SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
-    tuning_name = tuning
     P0 = None
     if p0_diag is not None:
         d = _floats(p0_diag, 14, "--p0-diag")

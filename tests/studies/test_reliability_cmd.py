@@ -311,3 +311,24 @@ def test_duplicate_times_merge_with_one_warning_line(tmp_path, capsys):
         code, err = run_cli(capsys, ["lightcurve", "prior", path])
         assert code == 0 and err == ["lcnav: warning: lc.csv: 2 row(s) share a time with another row; merged each group into one sample, "
                                      "the weighted mean in magnitudes (equal weights (no mag_err))"]
+
+
+def test_lock_holds_across_processes(tmp_path, capsys, lcnav_env):
+    """Another process holding OUT's lock (as a running `lcnav run` does) makes this one refuse, naming its pid."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    out.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from pathlib import Path; from studies.io import folder_lock\n"
+                               "with folder_lock(Path(sys.argv[1])):\n    print('locked', flush=True); time.sleep(60)", str(out)],
+                              stdout=subprocess.PIPE, text=True, env=lcnav_env)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        one_error(capsys, ["run", "--duration", "20", "--out", out], f"another lcnav is writing to it (pid {holder.pid})")
+        assert sorted(p.name for p in out.iterdir()) == [sio.LOCK_FILE]
+    finally:
+        holder.kill()
+        holder.wait()
+    assert main(["run", "--duration", "20", "--out", str(out)]) == 0  # the kill released the lock (flock dies with its process)
+    assert sio.is_complete(out)["command"] == "run"
