@@ -159,7 +159,7 @@ def study(
     config: Optional[Path] = typer.Option(None, "--config", help="Study config TOML (default studies/configs/NAME.toml).", callback=v.path_text()),
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume.", callback=v.out_dir()),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT.", callback=v.text()),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores; at most 256)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores; at most 4 per core)."),
 ) -> None:
     """Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."""
     result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers)

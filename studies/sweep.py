@@ -120,8 +120,8 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-#: Most local Dask workers.
-MAX_WORKERS = 256
+#: Most local Dask worker processes per core (more only thrash memory and the scheduler).
+MAX_WORKERS_PER_CORE = 4
 
 
 def check_scheduler(address: str | None) -> None:
@@ -131,9 +131,9 @@ def check_scheduler(address: str | None) -> None:
 
 
 def check_workers(workers: int | None) -> None:
-    """ValueError unless ``workers`` is None or an integer within ``[1, MAX_WORKERS]``."""
+    """ValueError unless ``workers`` is None or an integer within ``[1, MAX_WORKERS_PER_CORE × cores]``."""
     if workers is not None:
-        check_count("--workers", workers, 1, MAX_WORKERS)
+        check_count("--workers", workers, 1, MAX_WORKERS_PER_CORE * default_workers())
 
 
 #: How long a ``--scheduler`` has to answer, s.
