@@ -24,18 +24,21 @@ Reading is here (:func:`read_lightcurve`); writing a file is the caller's
 
 from __future__ import annotations
 
+import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import astropy.units as u
 import numpy as np
+from astropy.io.ascii import convert_numpy
 from astropy.table import Table
 from astropy.time import Time
 from astropy.timeseries import TimeSeries
 
 from lightcurves.samples import BadSeries, check_samples
 
-__all__ = ["LightCurve", "to_timeseries", "from_table", "read_lightcurve", "read_csv"]
+__all__ = ["LightCurve", "DuplicateTimesWarning", "to_timeseries", "from_table", "read_lightcurve", "read_csv", "merge_duplicate_times"]
 
 
 @dataclass(frozen=True)
@@ -96,12 +99,19 @@ def _plain(obj):
 
 
 def _column(table: Table, name: str, unit, n: int) -> np.ndarray:
+    """Column ``name`` in ``unit`` as floats (NaN if absent); BadSeries for missing cells, text or a wrong unit."""
     if name not in table.colnames:
         return _nan(n)
     col = table[name]
-    if getattr(col, "unit", None) is not None and unit is not None:
-        return np.asarray(u.Quantity(col).to_value(unit), dtype=float)
-    return np.asarray(col, dtype=float)
+    mask = np.ma.getmaskarray(col)
+    if mask.any():
+        raise BadSeries(f"light-curve column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a number in every row")
+    try:
+        if getattr(col, "unit", None) is not None and unit is not None:
+            return np.asarray(u.Quantity(col).to_value(unit), dtype=float)
+        return np.asarray(col, dtype=float)
+    except (ValueError, TypeError, u.UnitsError) as e:
+        raise BadSeries(f"light-curve column '{name}' ({type(e).__name__}: {str(e).splitlines()[0][:100]}); expected numbers in {unit}") from None
 
 
 def from_table(table: Table) -> LightCurve:
@@ -128,39 +138,139 @@ def from_table(table: Table) -> LightCurve:
     )
 
 
+#: A decimal number as observers write it: optional sign, digits with an optional point, optional exponent.
+#: Python's ``float`` also takes ``0x10``-like, ``1_000``, ``nan`` and ``inf`` text; a light curve must not.
+_DECIMAL = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
+class DuplicateTimesWarning(UserWarning):
+    """Rows of an observer's CSV at the same time were merged into one sample."""
+
+
+def _numbers(name: str, column, where: str) -> np.ndarray:
+    """A CSV column of text cells as floats: every cell a decimal number (no empty cell, no hex, no NaN/inf)."""
+    mask = np.ma.getmaskarray(column)
+    if mask.any():
+        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a decimal number in every row")
+    text = [str(c).strip() for c in np.asarray(column)]
+    for i, c in enumerate(text):
+        if not _DECIMAL.match(c):
+            raise BadSeries(f"{where}: column '{name}' row {i + 1} holds {c[:40]!r}; expected a decimal number like 9.75 or 1.2e-3")
+    values = np.array([float(c) for c in text])
+    if not np.all(np.isfinite(values)):
+        k = int(np.flatnonzero(~np.isfinite(values))[0])
+        raise BadSeries(f"{where}: column '{name}' row {k + 1} holds {text[k][:40]!r}, beyond a finite float; expected a finite number")
+    return values
+
+
+def merge_duplicate_times(t, mag, mag_err=None):
+    """Merge samples at equal times (``t`` sorted) into one: the inverse-variance weighted mean, in magnitudes.
+
+    The mean is taken directly in magnitudes with weights ``w_i = 1/σ_i²``
+    (``σ_i`` = ``mag_err``): ``m = Σ w_i m_i / Σ w_i``, ``σ = (Σ w_i)^(-1/2)``.
+    Over a group of equal times the brightness varies little, so the mean in
+    magnitudes and the magnitude of the mean flux agree to second order in the
+    scatter. Without errors (``mag_err`` None or NaN) the weights are equal
+    (the plain mean) and the error stays unknown (NaN). Returns ``(t, mag,
+    mag_err, n_merged)`` with ``n_merged`` the number of rows removed.
+    """
+    t = np.asarray(t, float)
+    mag = np.asarray(mag, float)
+    err = np.full_like(mag, np.nan) if mag_err is None else np.asarray(mag_err, float)
+    keys, counts = np.unique(t, return_counts=True)
+    if keys.size == t.size:
+        return t, mag, (None if mag_err is None else err), 0
+    known = np.all(np.isfinite(err) & (err > 0))
+    w = 1.0 / err**2 if known else np.ones_like(mag)
+    group = np.repeat(np.arange(keys.size), counts)  # t is sorted: groups are runs of equal times
+    wsum = np.bincount(group, weights=w)
+    m = np.bincount(group, weights=w * mag) / wsum
+    e = wsum**-0.5 if known else np.full(keys.size, np.nan)
+    return keys, m, (None if mag_err is None else e), int(t.size - keys.size)
+
+
+def _first_bad_time(cells: list[str], time_format: str | None) -> str:
+    """Which cell of a time column failed to parse (for the message), e.g. ``row 3 holds 'nan'``."""
+    for i, c in enumerate(cells):
+        try:
+            if _DECIMAL.match(c):
+                Time(float(c), format=time_format or "unix", scale="utc")
+            else:
+                Time(c, format="isot", scale="utc")
+        except (ValueError, TypeError):
+            return f"row {i + 1} holds {c[:40]!r}"
+    return "mixes ISO 8601 text and numbers"
+
+
 def read_csv(path, time_format: str | None = None) -> LightCurve:
     """An observer's CSV with a header ``time, mag[, mag_err]``.
 
     ``time`` is ISO 8601 UTC text, or numbers: seconds from the first sample
-    (``time_format=None``) or ``"mjd"``, ``"jd"``, ``"unix"``.
+    (``time_format=None``) or ``"mjd"``, ``"jd"``, ``"unix"``. Every cell must
+    be given (an empty cell is an error, not 0) and be a plain decimal number
+    (no ``0x10``, ``nan``, ``inf``). Rows at the same time are merged by
+    :func:`merge_duplicate_times` with one :class:`DuplicateTimesWarning`.
     """
     path = Path(path)
+    data = path.read_bytes()
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        raise BadSeries(f"{path.name}: NUL byte at offset {nul}; expected a text CSV with a header 'time,mag[,mag_err]'")
     try:
-        table = Table.read(path, format="ascii.csv", guess=False)
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise BadSeries(f"{path.name}: not UTF-8 text (byte {e.start}); expected a text CSV with a header 'time,mag[,mag_err]'") from None
+    try:
+        table = Table.read(text.splitlines(), format="ascii.csv", guess=False, converters={"*": [convert_numpy(str)]})
     except Exception as e:  # astropy's reader raises several types for malformed text
-        raise BadSeries(f"{path.name}: malformed CSV ({str(e).splitlines()[0]}); expected a header 'time,mag[,mag_err]' and one row per sample") from None
+        first = (str(e).splitlines() or [type(e).__name__])[0]
+        raise BadSeries(f"{path.name}: malformed CSV ({first}); expected a header 'time,mag[,mag_err]' and one row per sample") from None
     cols = [c.strip().lower() for c in table.colnames]
+    if len(set(cols)) != len(cols):
+        raise BadSeries(f"{path.name}: CSV header repeats a column ({cols}); expected 'time,mag[,mag_err]' once each")
     table.rename_columns(table.colnames, cols)
     if "time" not in cols or "mag" not in cols:
         raise BadSeries(f"{path.name}: CSV header must contain 'time' and 'mag' (optionally 'mag_err'), got {cols}")
-    for c in ("mag", "mag_err"):
-        if c in cols and table[c].dtype.kind not in "fiu":
-            raise BadSeries(f"{path.name}: column '{c}' must be numeric, got values like {table[c][0]!r}")
+    if len(table) == 0:
+        raise BadSeries(f"{path.name}: CSV has a header but no rows; expected one row per sample")
+    mag = _numbers("mag", table["mag"], path.name)
+    mag_err = _numbers("mag_err", table["mag_err"], path.name) if "mag_err" in cols else None
     raw = table["time"]
+    meta = dict(table.meta)
+    if np.ma.getmaskarray(raw).any():
+        raise BadSeries(f"{path.name}: column 'time' row {int(np.flatnonzero(np.ma.getmaskarray(raw))[0]) + 1} is empty; expected a time in every row")
+    cells = [str(c).strip() for c in np.asarray(raw)]
     try:
-        if raw.dtype.kind in "fiu":
+        if all(_DECIMAL.match(c) for c in cells):
+            values = _numbers("time", raw, path.name)
             if time_format is None:
-                time = Time("2000-01-01T12:00:00", scale="utc") + np.asarray(raw, float) * u.s
-                table.meta["time_origin"] = "relative seconds (no absolute epoch in the CSV)"
+                if np.abs(values).max() > 1e10:
+                    raise BadSeries(f"{path.name}: column 'time' reaches {np.abs(values).max():g} s; expected relative seconds within 1e10")
+                time = Time("2000-01-01T12:00:00", scale="utc") + values * u.s
+                meta["time_origin"] = "relative seconds (no absolute epoch in the CSV)"
             else:
-                time = Time(np.asarray(raw, float), format=time_format, scale="utc")
+                time = Time(values, format=time_format, scale="utc")
         else:
-            time = Time([str(v) for v in raw], format="isot", scale="utc")
+            time = Time(cells, format="isot", scale="utc")
     except (ValueError, TypeError) as e:
-        raise BadSeries(f"{path.name}: column 'time' is not ISO 8601 UTC or numeric ({e})") from None
-    out = Table({"time": time, "mag": np.asarray(table["mag"], float)}, meta=dict(table.meta))
-    if "mag_err" in cols:
-        out["mag_err"] = np.asarray(table["mag_err"], float)
+        if isinstance(e, BadSeries):
+            raise
+        raise BadSeries(f"{path.name}: column 'time' {_first_bad_time(cells, time_format)}; expected ISO 8601 UTC like "
+                        f"2024-03-21T20:00:00.5 or decimal {time_format or 'seconds'} in every row") from None
+    t_s = (time - time[0]).to_value(u.s)
+    if np.any(np.diff(t_s) < 0):
+        k = int(np.flatnonzero(np.diff(t_s) < 0)[0])
+        raise BadSeries(f"{path.name}: time is not increasing (row {k + 2} comes before row {k + 1}); expected rows in time order")
+    _, mag, mag_err, n_merged = merge_duplicate_times(t_s, mag, mag_err)
+    if n_merged:
+        keep = np.concatenate([[True], np.diff(t_s) > 0])
+        time = time[keep]
+        weighting = "inverse-variance weights 1/mag_err^2" if mag_err is not None and np.all(np.isfinite(mag_err)) else "equal weights (no mag_err)"
+        warnings.warn(f"{path.name}: {n_merged} row(s) share a time with another row; merged each group into one sample, "
+                      f"the weighted mean in magnitudes ({weighting})", DuplicateTimesWarning, stacklevel=2)
+    out = Table({"time": time, "mag": mag}, meta=meta)
+    if mag_err is not None:
+        out["mag_err"] = mag_err
     out.meta["source"] = str(path.name)
     return from_table(out)
 

@@ -20,7 +20,8 @@ import typer
 from estimators.attitude import mrp_to_quat
 from studies.blueprint import run_blueprint, send_error
 from studies.combina import FILTER_COMPONENTS, CombinaConfig, CombinaRun, component_errors, run_combina, run_metrics
-from studies.io import write_json, write_table
+from studies import validate as v
+from studies.io import output_folder, write_json, write_table
 from studies.recording import recording, rr, send_poses, send_scalars, set_sim_time, time_column
 
 AXES = ("x", "y", "z")
@@ -131,16 +132,22 @@ def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = N
             rec.log("/estimate/mode", rr.TextLog("symmetry detected: switched to axisymmetric mode", level=rr.TextLogLevel.WARN))
 
 
+#: Most measurement epochs of one run (duration × rate): a bound on the work one command may ask for.
+MAX_EPOCHS = 10**5
+
+
 def run_command(cfg: CombinaConfig, out: Path) -> dict:
-    """Validate, run and write the three files; nothing is written on bad input."""
+    """Validate, run and write the three files under the ``out`` lock; nothing is written on bad input or failure."""
     cfg.validate()
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"out must be a directory, {str(out)!r} is a file")
+    v.check_out_dir("--out", out)
+    if cfg.effective_duration_s * cfg.rate_hz > MAX_EPOCHS:
+        v.fail("--duration-tu × --rate-hz", f"{cfg.effective_duration_s * cfg.rate_hz:g}", f"at most {MAX_EPOCHS} measurements")
     run = run_combina(cfg)
     metrics = run_metrics(run)
-    write_table(out / "states.parquet", states_table(run))
-    write_recording(out / "combina.rrd", run)
-    write_json(out / "metrics.json", metrics)
+    with output_folder(out, "combina") as stage:
+        write_table(stage / "states.parquet", states_table(run))
+        write_recording(stage / "combina.rrd", run)
+        write_json(stage / "metrics.json", metrics)
     return metrics
 
 
@@ -149,16 +156,16 @@ def register(app: typer.Typer) -> None:
 
     @app.command("combina")
     def combina(
-        target: str = typer.Option("asymmetric", help="asymmetric (box-wing) | symmetric (rocket body)"),
-        measurements: str = typer.Option("simulated", help="simulated | rendered"),
-        duration_tu: float = typer.Option(2.0, help="duration in time units (TU = 963.65 s)"),
-        rate_hz: float = typer.Option(0.33, help="measurement rate, Hz"),
+        target: str = typer.Option("asymmetric", help="asymmetric (box-wing) | symmetric (rocket body)", callback=v.text()),
+        measurements: str = typer.Option("simulated", help="simulated | rendered", callback=v.text()),
+        duration_tu: float = typer.Option(2.0, help="duration in time units (TU = 963.65 s), at most 100", callback=v.number(0, 100, lo_open=True, unit="TU")),
+        rate_hz: float = typer.Option(0.33, help="measurement rate, Hz (at most 10)", callback=v.number(0, 10, lo_open=True, unit="Hz")),
         quick: bool = typer.Option(False, help="short run: 0.25 TU simulated; 0.05 TU at 256 px rendered"),
-        seed: int = typer.Option(1, help="random seed"),
-        prior: str = typer.Option("none", help="spin prior: none | init | proxy"),
-        prior_error: float = typer.Option(0.05, help="relative error of the spin prior"),
-        axis_frame: str = typer.Option("known", help="axisymmetric mode: known | estimated frame I_Gamma"),
-        out: Path = typer.Option(..., help="output directory"),
+        seed: int = typer.Option(1, help="random seed", callback=v.seed()),
+        prior: str = typer.Option("none", help="spin prior: none | init | proxy", callback=v.text()),
+        prior_error: float = typer.Option(0.05, help="relative error of the spin prior", callback=v.number(0, 1, lo_open=True, hi_open=True)),
+        axis_frame: str = typer.Option("known", help="axisymmetric mode: known | estimated frame I_Gamma", callback=v.text()),
+        out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
         """CoMBiNa relative navigation (000 §VI): writes metrics.json, states.parquet, combina.rrd."""
         cfg = CombinaConfig(target=target, measurements=measurements, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior, prior_error=prior_error, axis_frame=axis_frame, quick=quick)

@@ -14,8 +14,14 @@ default, ``--config FILE`` otherwise). Each file has
 
 A bad file raises :class:`ConfigError` (a ``ValueError``) whose one-line
 message names the file, the field and the expected form, e.g.
-``truth.toml: field 'n_seeds' must be an integer >= 1, got -3``; the CLI
+``truth.toml: field 'n_seeds' must be an integer >= 1 and <= 100000, got -3``; the CLI
 prints that line and exits non-zero before writing anything.
+
+Sizes are bounded so that no config can make a study hang or exhaust memory:
+a number without its own upper bound must lie within ``±DEFAULT_MAX[kind]``
+(integers 1e5, numbers 1e6), every ``*duration*_s`` field divided by a step
+field (``dt_s``, ``cadence_s``, ``rk4_dt_s``, ``measurement_period_s``) gives at
+most :data:`MAX_STEPS` steps, and a file is at most 1 MiB.
 """
 
 from __future__ import annotations
@@ -40,6 +46,15 @@ _KIND_NAMES = {
     "bool": "true or false",
 }
 KINDS = tuple(_KIND_NAMES) + tuple(f"list[{k}]" for k in ("int", "float", "str"))
+
+#: Bounds of a number without its own (counts, durations, sizes): ``-DEFAULT_MAX <= v <= DEFAULT_MAX``.
+DEFAULT_MAX = {"int": 10**5, "float": 1e6}
+#: Steps a run may take: every ``*duration*_s`` field over every step field.
+MAX_STEPS = 10**6
+STEP_FIELDS = ("dt_s", "cadence_s", "rk4_dt_s", "measurement_period_s")
+#: Largest config file, bytes; longest list, items.
+MAX_CONFIG_BYTES = 2**20
+MAX_LIST = 10**4
 
 
 class ConfigError(ValueError):
@@ -80,22 +95,31 @@ class Field:
         words = _KIND_NAMES[elem]
         if self.choices is not None:
             words = "one of " + ", ".join(repr(c) for c in self.choices)
-        bounds = [f"> {self.gt:g}" if self.gt is not None else "", f">= {self.ge:g}" if self.ge is not None else "",
-                  f"<= {self.le:g}" if self.le is not None else ""]
+        lo, hi = self._limits()
+        bounds = [f"> {self.gt:g}" if self.gt is not None else "", f">= {lo:g}" if self.gt is None and lo is not None else "",
+                  f"<= {hi:g}" if hi is not None else ""]
         bounds = " and ".join(b for b in bounds if b)
         if bounds:
             words += " " + bounds
         if self.kind.startswith("list["):
-            return f"a list of at least {self.min_len} item(s), each {words}"
+            return f"a list of {self.min_len} to {MAX_LIST} item(s), each {words}"
         return words
+
+    def _limits(self) -> tuple[float | None, float | None]:
+        """``(ge, le)`` with the defaults of :data:`DEFAULT_MAX` where the field sets none (numbers only)."""
+        elem = self.kind[5:-1] if self.kind.startswith("list[") else self.kind
+        if elem not in DEFAULT_MAX or self.choices is not None:
+            return self.ge, self.le
+        return (self.ge if self.ge is not None else -DEFAULT_MAX[elem]), (self.le if self.le is not None else DEFAULT_MAX[elem])
 
     def check(self, value, name: str, where: str):
         """Return ``value`` converted to the field's kind; ConfigError naming ``name`` otherwise."""
         def fail():
-            raise ConfigError(f"{where}: field {name!r} must be {self.expected()}, got {value!r}")
+            shown = repr(value) if len(repr(value)) <= 80 else repr(value)[:77] + "..."
+            raise ConfigError(f"{where}: field {name!r} must be {self.expected()}, got {shown}")
 
         if self.kind.startswith("list["):
-            if not isinstance(value, list) or len(value) < self.min_len:
+            if not isinstance(value, list) or not self.min_len <= len(value) <= MAX_LIST:
                 fail()
             elem_field = Field(self.kind[5:-1], self.doc, gt=self.gt, ge=self.ge, le=self.le, choices=self.choices)
             try:
@@ -113,7 +137,7 @@ class Field:
                 raise ValueError
             return v
         if self.kind == "str":
-            if not isinstance(v, str) or (self.choices is not None and v not in self.choices):
+            if not isinstance(v, str) or (self.choices is not None and v not in self.choices) or len(v) > 1000 or not v.isprintable():
                 raise ValueError
             return v
         # TOML ints are fine where a float is expected; bools are not numbers here
@@ -122,9 +146,8 @@ class Field:
         v = int(v) if self.kind == "int" else float(v)
         if not math.isfinite(v):
             raise ValueError
-        if (self.gt is not None and not v > self.gt) or (self.ge is not None and not v >= self.ge) or (
-            self.le is not None and not v <= self.le
-        ):
+        lo, hi = self._limits()
+        if (self.gt is not None and not v > self.gt) or (lo is not None and not v >= lo) or (hi is not None and not v <= hi):
             raise ValueError
         if self.choices is not None and v not in self.choices:
             raise ValueError
@@ -134,7 +157,7 @@ class Field:
 #: Fields every study config has.
 COMMON_FIELDS: dict[str, Field] = {
     "study": Field("str", "Name of the study this file configures."),
-    "seed": Field("int", "Study seed; each run's seed derives from it and the run id.", ge=0),
+    "seed": Field("int", "Study seed; each run's seed derives from it and the run id.", ge=0, le=2**63 - 1),
 }
 
 
@@ -169,6 +192,8 @@ def read_toml(path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"config file {path} does not exist")
+    if path.stat().st_size > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{path.name}: {path.stat().st_size} bytes; expected a config of at most {MAX_CONFIG_BYTES} bytes")
     try:
         with path.open("rb") as f:
             return tomllib.load(f)
@@ -194,6 +219,17 @@ def _check_fields(raw: Mapping, fields: Mapping[str, Field], where: str, prefix:
     return out
 
 
+def _check_steps(params: Mapping, where: str) -> None:
+    """Every ``*duration*_s`` field over every step field present gives at most :data:`MAX_STEPS` steps."""
+    steps = {k: params[k] for k in STEP_FIELDS if isinstance(params.get(k), int | float) and params[k] > 0}
+    for name, duration in params.items():
+        if "duration" in name and name.endswith("_s") and isinstance(duration, int | float):
+            for step_name, step in steps.items():
+                if duration / step > MAX_STEPS:
+                    raise ConfigError(f"{where}: fields {name!r} / {step_name!r} = {duration:g} / {step:g} give {duration / step:.3g} steps; "
+                                      f"expected at most {MAX_STEPS}")
+
+
 def validate_config(raw: Mapping, study: str, fields: Mapping[str, Field], *, quick: bool = False, where: str = "config") -> StudyConfig:
     """Validate the parsed TOML ``raw`` of study ``study`` against ``fields``.
 
@@ -211,6 +247,7 @@ def validate_config(raw: Mapping, study: str, fields: Mapping[str, Field], *, qu
     overrides = _check_fields(quick_raw, fields, where, prefix="quick.", fill_defaults=False)
     if quick:
         params.update(overrides)
+    _check_steps(params, where)
     return StudyConfig(study=study, seed=common["seed"], params=params, quick=quick, source=where)
 
 

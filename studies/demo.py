@@ -38,11 +38,12 @@ import typer
 from studies.chain import (ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
                            record_lightcurve, record_run, render_prior)
 from lightcurves.io import to_timeseries
-from studies.io import atomic_path, write_json, write_table, write_text
+from studies.io import atomic_path, output_folder, write_json, write_table, write_text
 from studies.metrics import GROUPS
 from studies.scenarios import get_scenario
 from studies.tables import Table, write_tables
 from studies.truth import simulate_truth
+from studies.validate import check_out_dir, out_dir
 
 DEFAULT_OUT = Path("runs/demo")
 
@@ -98,9 +99,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
         echo(line)
 
     started = time.perf_counter()
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} exists and is not a folder")
+    out = check_out_dir("--out", out)
     sc = get_scenario(config.scenario)
     rng = np.random.default_rng(config.seed)
     measurement_seed = int(rng.integers(2**63))  # drawn first: independent of how many draws the render takes
@@ -146,33 +145,33 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
              f"from the rendered truth); {rendered.mapping}")
     tables = [Table("comparison", f"lcnav demo: EKF and UKF on {sc.name}, with and without the light-curve prior", table, notes, default_format=".3g")]
 
-    # ---- write everything (atomically), now that every computation has succeeded
-    out.mkdir(parents=True, exist_ok=True)
-    md = write_tables(out, tables, heading="lcnav demo")
-    write_table(out / "runs.parquet", full, csv=True)
-    write_text(out / "narrative.txt", "\n".join(narrative) + "\n")
-    with atomic_path(out / "lightcurve.ecsv") as tmp:
-        to_timeseries(rendered.simulated.lightcurve).write(tmp, format="ascii.ecsv", overwrite=True)
-    write_json(out / "prior.json", {**p.to_dict(), "truth_rate_rad_s": rendered.truth_rate_rad_s, "rate_error": rendered.rate_error,
-                                    "assumed_axis_T": rendered.axis_T.tolist(), "prior_w_T_T_rad_s": w.tolist(),
-                                    "prior_sigma_rad_s": rendered.spin.sigma_rad_s.tolist(), "mapping": rendered.mapping,
-                                    "config": asdict(config)})
-    plot_lightcurve(rendered, out / "lightcurve.png")
-    plot_spectrum(rendered, out / "spectrum.png")
-    record_lightcurve(out / "lightcurve.rrd", rendered, recording_id=f"demo-lightcurve-seed{config.seed}")
-    for name, (run, meas) in tqdm(runs.items(), desc="figures and recordings", unit="run", leave=False, disable=not progress):
-        label = next(r["prior"] for r in rows if r["run"] == name)
-        plot_errors(truth, run, out / f"errors_{name}.png", f"{run.filter.upper()} on {sc.name}, {label}")
-        record_run(out / f"{name}.rrd", truth, run, meas, config.seed, name)
-    for f in config.filters:
-        arms = {ARM_LABELS[arm]: runs[f"{f}{suffix}"][0] for suffix, arm in DEMO_ARMS.items()}
-        plot_prior_comparison(truth, arms, out / f"prior_vs_none_{f}.png", f"{f.upper()} on {sc.name}")
-    files = sorted(out.iterdir())
+    # ---- write everything (staged under the --out lock, moved into --out once all is written), now that every computation has succeeded
+    with output_folder(out, "demo") as stage:
+        md = write_tables(stage, tables, heading="lcnav demo")
+        write_table(stage / "runs.parquet", full, csv=True)
+        write_text(stage / "narrative.txt", "\n".join(narrative) + "\n")
+        with atomic_path(stage / "lightcurve.ecsv") as tmp:
+            to_timeseries(rendered.simulated.lightcurve).write(tmp, format="ascii.ecsv", overwrite=True)
+        write_json(stage / "prior.json", {**p.to_dict(), "truth_rate_rad_s": rendered.truth_rate_rad_s, "rate_error": rendered.rate_error,
+                                        "assumed_axis_T": rendered.axis_T.tolist(), "prior_w_T_T_rad_s": w.tolist(),
+                                        "prior_sigma_rad_s": rendered.spin.sigma_rad_s.tolist(), "mapping": rendered.mapping,
+                                        "config": asdict(config)})
+        plot_lightcurve(rendered, stage / "lightcurve.png")
+        plot_spectrum(rendered, stage / "spectrum.png")
+        record_lightcurve(stage / "lightcurve.rrd", rendered, recording_id=f"demo-lightcurve-seed{config.seed}")
+        for name, (run, meas) in tqdm(runs.items(), desc="figures and recordings", unit="run", leave=False, disable=not progress):
+            label = next(r["prior"] for r in rows if r["run"] == name)
+            plot_errors(truth, run, stage / f"errors_{name}.png", f"{run.filter.upper()} on {sc.name}, {label}")
+            record_run(stage / f"{name}.rrd", truth, run, meas, config.seed, name)
+        for f in config.filters:
+            arms = {ARM_LABELS[arm]: runs[f"{f}{suffix}"][0] for suffix, arm in DEMO_ARMS.items()}
+            plot_prior_comparison(truth, arms, stage / f"prior_vs_none_{f}.png", f"{f.upper()} on {sc.name}")
+    files = sorted(p for p in out.iterdir() if not p.name.startswith("."))
     return DemoResult(table, md, rendered, files, time.perf_counter() - started)
 
 
 def demo(
-    out: Path = typer.Option(DEFAULT_OUT, "--out", help="Output folder (tables, figures, recordings)."),
+    out: Path = typer.Option(DEFAULT_OUT, "--out", help="Output folder (tables, figures, recordings).", callback=out_dir()),
     quick: bool = typer.Option(False, "--quick", help="Smaller run (shorter light curve and filter runs, 16 px renders) for tests."),
 ) -> None:
     """The main job: light curve -> WindowCLEAN prior -> EKF/UKF on SC3 with and without it; tables, figures, recordings."""

@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 import typer
 
-from studies.io import write_table
+from studies import validate as v
+from studies.io import is_complete, write_table
 from studies.recording import TIMELINE
 from studies.sweep import RESULT_FILE
 
@@ -49,11 +50,14 @@ class RecordingSummary:
 def _open_store(path: Path):
     from rerun.chunk import RrdReader
 
-    reader = RrdReader(path)
-    recs = reader.recordings()
-    if not recs:
-        raise ValueError(f"{path} holds no recording")
-    return reader, recs[0], reader.stream(store=recs[0]).collect()
+    try:
+        reader = RrdReader(path)
+        recs = reader.recordings()
+        if not recs:
+            raise v.InputError(f"{str(path)!r} holds no recording; expected a rerun recording written by lcnav")
+        return reader, recs[0], reader.stream(store=recs[0]).collect()
+    except RuntimeError as e:  # rerun reports a malformed or truncated file as a RuntimeError
+        raise v.InputError(f"{str(path)!r} is not a readable rerun recording ({v.plain(str(e), 160)[1:-1]}); expected a .rrd written by lcnav") from None
 
 
 def _time_frame(store, contents=None) -> pd.DataFrame:
@@ -130,7 +134,10 @@ def export_series(path, contents: list[str] | None = None) -> tuple[pd.DataFrame
     """
     path = Path(path)
     _, _, store = _open_store(path)
-    df = _time_frame(store, contents)
+    try:
+        df = _time_frame(store, contents)
+    except (ValueError, RuntimeError) as e:  # a malformed entity-path expression
+        raise v.InputError(f"--contents {v.plain(contents)}: {v.plain(str(e), 160)[1:-1]}; expected entity-path expressions like '/truth/**'") from None
     static = {c.name for c in store.schema().component_columns() if c.is_static}
     out = {TIME_COLUMN: df[TIMELINE].dt.total_seconds().to_numpy()}
     skipped = []
@@ -162,6 +169,17 @@ def _find_recordings(path: Path) -> tuple[list[Path], Path | None]:
     raise FileNotFoundError(f"{path} does not exist")
 
 
+def _read_metrics(path: Path) -> dict:
+    """A run's ``metrics.json``: a JSON object (``params`` and ``metrics`` objects if present)."""
+    try:
+        rec = json.loads(path.read_bytes())
+    except (ValueError, RecursionError) as e:
+        raise v.InputError(f"{str(path)!r} is not JSON ({type(e).__name__}); expected the metrics.json lcnav writes") from None
+    if not isinstance(rec, dict) or not all(isinstance(rec.get(k, {}), dict) for k in ("params", "metrics")):
+        raise v.InputError(f"{str(path)!r} holds no JSON object with 'params' and 'metrics' objects; expected the metrics.json lcnav writes")
+    return rec
+
+
 def format_summary(s: RecordingSummary) -> str:
     lines = [
         f"recording {s.path}",
@@ -175,9 +193,17 @@ def format_summary(s: RecordingSummary) -> str:
 
 
 def format_study(out_dir: Path) -> str:
-    """A study folder: its runs (from ``runs.parquet``), where they are, and ``summary.md``."""
-    runs = pd.read_parquet(out_dir / "runs.parquet")
-    lines = [f"study folder {out_dir}: {len(runs)} runs in runs.parquet; per run: {out_dir / 'runs'}/<run_id>/"]
+    """A study folder: its runs (from ``runs.parquet``), where they are, whether it finished, and ``summary.md``."""
+    table = out_dir / "runs.parquet"
+    try:
+        runs = pd.read_parquet(table)
+    except (ValueError, OSError) as e:  # pyarrow: not Parquet / truncated
+        raise v.InputError(f"{str(table)!r} is not a readable Parquet table ({v.plain(str(e), 120)[1:-1]}); expected the runs table of `lcnav study`") from None
+    if "run_id" not in runs.columns:
+        raise v.InputError(f"{str(table)!r} has columns {v.plain(list(map(str, runs.columns)))} without 'run_id'; expected the runs table of `lcnav study`")
+    done = is_complete(out_dir)
+    state = f"complete ({done.get('command')}, {done.get('finished_utc')})" if done else "INCOMPLETE: no .complete.json (killed or failed; re-run the study on it to resume)"
+    lines = [f"study folder {out_dir}: {state}; {len(runs)} runs in runs.parquet; per run: {out_dir / 'runs'}/<run_id>/"]
     lines += [f"  {rid}" for rid in runs["run_id"]]
     summary = out_dir / "summary.md"
     if summary.is_file():
@@ -186,9 +212,9 @@ def format_study(out_dir: Path) -> str:
 
 
 def inspect(
-    path: Path = typer.Argument(..., help="A .rrd recording, a run folder (DIR/runs/<run_id>) or a study folder (DIR)."),
-    export: Optional[Path] = typer.Option(None, "--export", help="Write the recording's time series to this Parquet file."),
-    contents: Optional[list[str]] = typer.Option(None, "--contents", help="Entity-path expression(s) to export, e.g. '/truth/**'."),
+    path: Path = typer.Argument(..., help="A .rrd recording, a run folder (DIR/runs/<run_id>) or a study folder (DIR).", callback=v.path_text()),
+    export: Optional[Path] = typer.Option(None, "--export", help="Write the recording's time series to this Parquet file.", callback=v.out_file(".parquet")),
+    contents: Optional[list[str]] = typer.Option(None, "--contents", help="Entity-path expression(s) to export, e.g. '/truth/**'.", callback=v.text()),
 ) -> None:
     """List what a recording holds (entities, time range, counts) and the run's metrics; optionally export series.
 
@@ -201,19 +227,20 @@ def inspect(
         return
     rrds, metrics = _find_recordings(path)
     if export is not None:
-        if export.suffix != ".parquet":
-            raise ValueError(f"--export must name a .parquet file, got {export}")
         if len(rrds) != 1:
             raise ValueError(f"--export needs exactly one recording; {path} holds {len(rrds)}: give the .rrd file")
     for rrd in rrds:
         typer.echo(format_summary(summarize_recording(rrd)))
     if metrics is not None:
-        rec = json.loads(metrics.read_text())
+        rec = _read_metrics(metrics)
         typer.echo(f"metrics ({metrics}): run {rec.get('run_id')!r}, seed {rec.get('seed')}")
-        for k, v in {**rec.get("params", {}), **rec.get("metrics", {})}.items():
-            typer.echo(f"  {k:<28} {v}")
+        for k, value in {**rec.get("params", {}), **rec.get("metrics", {})}.items():
+            typer.echo(f"  {k:<28} {value}")
     if export is not None:
         table, skipped = export_series(rrds[0], contents)
+        if table.shape[1] < 2 or len(table) == 0:
+            raise v.InputError(f"--contents {v.plain(contents)} matches no time series in {str(rrds[0])!r}; expected a pattern naming logged "
+                               f"entities (see the listing above), e.g. '/truth/**'")
         write_table(export, table)
         typer.echo(f"exported {len(table)} rows x {table.shape[1]} columns to {export}")
         if skipped:

@@ -3,25 +3,44 @@
 Writers put the bytes in a temporary file in the destination folder and
 ``os.replace`` it onto the final name, so an interrupted run never leaves a
 half-written table, light curve or recording behind.
+
+A command that fills an output folder does it inside :func:`output_folder`:
+
+* a lock (``fcntl.flock`` on ``OUT/.lcnav.lock``, non-blocking, the file removed
+  on release): a second lcnav writing to the same folder is refused at once,
+  naming the holder's pid;
+* under the lock, stale temporary files of a killed run (``.NAME.XXXX.tmp``,
+  ``.lcnav-stage-*``) are removed and the completion marker is taken away;
+* the command writes into a private staging folder (or, for a resumable study,
+  into ``OUT`` itself); only when everything has succeeded are the staged files
+  renamed into ``OUT`` and the marker ``OUT/.complete.json`` (command, lcnav
+  version, UTC time, files) written last. On failure the staged files are
+  removed, and a folder the command created is removed again.
+
+So a folder without ``.complete.json`` is unfinished (killed or failed), never
+mistaken for a result.
 """
 
 from __future__ import annotations
 
 import contextlib
+import datetime
+import errno
+import fcntl
 import json
 import os
+import re
+import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pandas as pd
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | os.PathLike):
-    """Yield a temporary path next to ``path``; rename it onto ``path`` on success.
-
-    On any exception the temporary file is removed and ``path`` is untouched.
-    """
+def _temporary(path) -> Iterator[Path]:
+    """A new empty file ``.NAME.XXXX.tmp`` next to ``path`` (ordinary permissions); removed on exit if still there."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -34,10 +53,20 @@ def atomic_path(path: str | os.PathLike):
     tmp = Path(tmp)
     try:
         yield tmp
-        os.replace(tmp, path)
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike):
+    """Yield a temporary path next to ``path``; rename it onto ``path`` on success.
+
+    On any exception the temporary file is removed and ``path`` is untouched.
+    """
+    with _temporary(path) as tmp:
+        yield tmp
+        os.replace(tmp, path)
 
 
 def write_text(path, text: str) -> Path:
@@ -61,3 +90,156 @@ def write_table(path, df: pd.DataFrame, *, csv: bool = False) -> Path:
         with atomic_path(path.with_suffix(".csv")) as tmp:
             df.to_csv(tmp, index=False)
     return path
+
+
+LOCK_FILE = ".lcnav.lock"
+COMPLETE_FILE = ".complete.json"
+STAGE_PREFIX = ".lcnav-stage-"
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("lcnav")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@contextlib.contextmanager
+def atomic_paths(*paths) -> Iterator[list[Path]]:
+    """Temporary paths next to each of ``paths``; all renamed onto them only if the block succeeds.
+
+    For a command writing several files that belong together (a light curve and
+    its recording): on any exception none of them is written.
+    """
+    with contextlib.ExitStack() as stack:
+        tmps = [stack.enter_context(_temporary(p)) for p in paths]
+        yield tmps
+        for tmp, path in zip(tmps, paths):
+            os.replace(tmp, path)
+
+
+_STALE_TMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")  # what _temporary (mkstemp) names
+
+
+def clean_stale(out: Path, depth: int = 2) -> list[Path]:
+    """Remove what a killed lcnav left in ``out`` (and ``depth`` levels below): temporary files and staging folders.
+
+    Only names lcnav makes are touched (``.NAME.XXXXXXXX.tmp``, ``.lcnav-stage-*``); call under the lock.
+    """
+    removed = []
+    for level in range(depth + 1):
+        for p in sorted(out.glob("/".join(["*"] * level + [".*"]))):
+            if p.is_file() and _STALE_TMP.match(p.name):
+                p.unlink(missing_ok=True)
+                removed.append(p)
+            elif level == 0 and p.is_dir() and p.name.startswith(STAGE_PREFIX):
+                shutil.rmtree(p, ignore_errors=True)
+                removed.append(p)
+    return removed
+
+
+def is_complete(out) -> dict | None:
+    """The completion record of ``out`` (``.complete.json``), or None if the folder is unfinished."""
+    path = Path(out) / COMPLETE_FILE
+    try:
+        rec = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) else None
+
+
+class FolderBusy(ValueError):
+    """Another lcnav holds the lock of the output folder."""
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path) -> Iterator[None]:
+    """Hold ``OUT/.lcnav.lock`` (non-blocking ``flock``); FolderBusy naming the holder's pid otherwise.
+
+    The lock file holds the holder's pid and is removed on release. A waiter
+    that opened the file just before it was removed would lock a file no one
+    else sees, so after locking the inode is compared with the path's and the
+    attempt repeated if they differ (the usual lock-file protocol).
+    """
+    path = out / LOCK_FILE
+    for _ in range(100):
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as e:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            if e.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise
+            raise FolderBusy(f"--out {str(out)!r}: another lcnav is writing to it (pid {holder}); expected a folder no other lcnav is using "
+                             "(wait for it to finish or choose another --out)") from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(path).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # locked a lock file that its holder removed meanwhile: try the new one
+    else:  # pragma: no cover - 100 lost races in a row
+        raise FolderBusy(f"--out {str(out)!r}: could not take its lock; expected a folder no other lcnav is using")
+    try:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield
+    finally:
+        path.unlink(missing_ok=True)  # still under the lock: a waiter sees no file or a new one
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def output_folder(out, command: str, *, staged: bool = True, check=None) -> Iterator[Path]:
+    """Write a command's outputs into ``out`` as one unit (see the module docstring).
+
+    Yields the folder to write into: a private staging folder inside ``out``
+    (``staged=True``; its files are renamed into ``out`` when the block
+    succeeds) or ``out`` itself (``staged=False``, for a resumable study whose
+    runs land one by one). ``check(out)``, if given, runs under the lock before
+    anything in ``out`` changes (e.g. that a folder to resume holds the same
+    study). ``OUT/.complete.json`` is written last, on success only; with
+    ``staged=False`` the caller removes the old marker before its first write.
+    """
+    out = Path(out)
+    created = []
+    p = out
+    while not p.exists():
+        created.append(p)
+        p = p.parent
+    out.mkdir(parents=True, exist_ok=True)
+    ok = False
+    try:
+        with folder_lock(out):
+            if check is not None:
+                check(out)
+            clean_stale(out)
+            stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out)) if staged else out
+            try:
+                yield stage
+                names = []
+                if staged:
+                    (out / COMPLETE_FILE).unlink(missing_ok=True)
+                    for f in sorted(stage.rglob("*")):
+                        if f.is_file():
+                            dest = out / f.relative_to(stage)
+                            dest.parent.mkdir(parents=True, exist_ok=True)
+                            os.replace(f, dest)
+                            names.append(str(f.relative_to(stage)))
+                write_json(out / COMPLETE_FILE, {"command": command, "lcnav_version": _version(),
+                                                 "finished_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                                                 **({"files": names} if staged else {})})
+                ok = True
+            finally:
+                if staged:
+                    shutil.rmtree(stage, ignore_errors=True)
+    finally:
+        if not ok and created:
+            # a folder this command created and left empty is removed again
+            for d in [out / "runs", *created]:
+                with contextlib.suppress(OSError):
+                    d.rmdir()

@@ -7,9 +7,12 @@
     lcnav lightcurve prior lc.ecsv [--json] [--record prior.rrd]
 
 Inputs are validated before anything is written; the ECSV and the recording
-are written atomically (:mod:`studies.io`). ``--record`` writes the light-curve
-recording of :mod:`studies.lightcurve_recording` (curve, geometry, spectra,
-the extracted prior, and a viewer layout).
+are written atomically (:mod:`studies.io`). ``--record`` logs to rerun:
+``/lightcurve/mag``, ``/lightcurve/mag_true``, ``/lightcurve/geometry/*`` on
+the ``sim_time`` timeline (seconds since the first sample) and the spectra
+``/spectrum/dirty``, ``/spectrum/clean``, ``/spectrum/residual``,
+``/spectrum/window`` (amplitude against frequency) with the adopted rotation
+frequency ``/spectrum/rotation_frequency``.
 """
 
 from __future__ import annotations
@@ -20,77 +23,62 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from studies.io import atomic_path
+from studies import validate as v
+from studies.io import atomic_paths
 from studies.lightcurve_recording import write_lightcurve_recording
 
 lightcurve_app = typer.Typer(help="Synthetic light curves and spin priors.", no_args_is_help=True)
 
 
 def _vector3(text: str, flag: str) -> np.ndarray:
-    try:
-        v = np.array([float(x) for x in text.split(",")])
-    except ValueError:
-        raise ValueError(f"{flag} must be three comma-separated numbers like 0,0,1, got {text!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) == 0:
-        raise ValueError(f"{flag} must be three comma-separated numbers, not all zero, like 0,0,1, got {text!r}")
-    return v / np.linalg.norm(v)
+    vec = v.check_floats(flag, text, 3, max_abs=1e12)
+    if np.linalg.norm(vec) == 0:
+        v.fail(flag, text, "three comma-separated numbers, not all zero, like 0,0,1")
+    return vec / np.linalg.norm(vec)
 
 
-def _out_path(path: Path | None, suffix: str, flag: str) -> Path | None:
-    if path is None:
-        return None
-    if path.suffix.lower() != suffix:
-        raise ValueError(f"{flag} must name a {suffix} file, got {str(path)!r}")
-    if path.exists() and path.is_dir():
-        raise ValueError(f"{flag} {str(path)!r} is a directory")
-    return path
+#: Most samples of a rendered light curve (duration / cadence): each one is a Mitsuba render.
+MAX_SAMPLES = 10**5
 
 
-def _validate_render(target: str, axis: str, rate_deg_s: float, duration: float, cadence: float, albedo: float | None, spp: int, resolution: int, pole_ra_dec: str | None):
+def _validate_render(target: str, axis: str, duration: float, cadence: float, albedo: float | None, pole_ra_dec: str | None):
+    """Cross-option checks of ``render`` (single options are bounded by their callbacks)."""
+    from lightcurves.samples import MIN_SAMPLES
     from lightcurves.targets import TARGETS
 
     if target not in TARGETS:
-        raise ValueError(f"unknown target {target!r}; known targets: {', '.join(sorted(TARGETS))}")
+        v.fail("--target", target, "one of " + ", ".join(sorted(TARGETS)))
     axis_T = _vector3(axis, "--axis")
-    if not (np.isfinite(rate_deg_s) and rate_deg_s > 0):
-        raise ValueError(f"--rate-deg-s must be > 0, got {rate_deg_s}")
-    if not (np.isfinite(duration) and duration > 0 and np.isfinite(cadence) and 0 < cadence < duration):
-        raise ValueError(f"need --duration > --cadence > 0 (seconds), got --duration {duration} --cadence {cadence}")
-    if duration / cadence < 20:
-        raise ValueError(f"--duration/--cadence gives {int(duration / cadence) + 1} samples; at least 20 are needed")
+    if not cadence < duration or not MIN_SAMPLES <= duration / cadence <= MAX_SAMPLES:
+        v.fail("--duration/--cadence", f"{duration:g}/{cadence:g}", f"--cadence < --duration and {MIN_SAMPLES} to {MAX_SAMPLES} samples")
     if albedo is not None and target != "sphere":
-        raise ValueError("--albedo applies to --target sphere only")
-    if spp not in (1, 4, 16, 64, 256):
-        raise ValueError(f"--spp must be 1, 4, 16, 64 or 256, got {spp}")
-    if resolution < 4:
-        raise ValueError(f"--resolution must be >= 4 pixels, got {resolution}")
+        raise v.InputError(f"--albedo {albedo:g} with --target {target!r}: expected --albedo with --target sphere only")
     pole_I = None
     if pole_ra_dec is not None:
-        try:
-            ra, dec = (np.radians(float(x)) for x in pole_ra_dec.split(","))
-        except ValueError:
-            raise ValueError(f"--pole-ra-dec must be 'RA,DEC' in degrees, got {pole_ra_dec!r}") from None
+        ra, dec = np.radians(v.check_floats("--pole-ra-dec", pole_ra_dec, 2, max_abs=360.0))
+        if abs(dec) > np.pi / 2:
+            v.fail("--pole-ra-dec", pole_ra_dec, "'RA,DEC' in degrees with DEC within [-90, 90]")
         pole_I = np.array([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)])
     return axis_T, pole_I
 
 
 @lightcurve_app.command("render")
 def render(
-    target: str = typer.Option("atlas-centaur", help="atlas-centaur, vespa, box-wing or sphere"),
-    axis: str = typer.Option("0,0,1", help="spin axis in the target's principal frame T, 'x,y,z'"),
-    rate_deg_s: float = typer.Option(5.0, help="spin rate, deg/s"),
-    duration: float = typer.Option(400.0, help="arc length, s"),
-    cadence: float = typer.Option(0.5, help="nominal sampling interval, s"),
-    seed: int = typer.Option(1, help="seed of every random draw (phase, sampling, noise)"),
-    out: Path = typer.Option(..., help="output light curve (.ecsv)"),
-    record: Path | None = typer.Option(None, help="also write a rerun recording (.rrd)"),
-    albedo: float | None = typer.Option(None, help="sphere albedo (--target sphere)"),
-    pole_ra_dec: str | None = typer.Option(None, help="inertial spin-axis direction 'RA,DEC' in degrees (default: normal of the phase plane)"),
+    target: str = typer.Option("atlas-centaur", help="atlas-centaur, vespa, box-wing or sphere", callback=v.text()),
+    axis: str = typer.Option("0,0,1", help="spin axis in the target's principal frame T, 'x,y,z'", callback=v.text()),
+    rate_deg_s: float = typer.Option(5.0, help="spin rate, deg/s (at most 360)", callback=v.number(0, 360, lo_open=True, unit="deg/s")),
+    duration: float = typer.Option(400.0, help="arc length, s", callback=v.number(0, 1e6, lo_open=True, unit="s")),
+    cadence: float = typer.Option(0.5, help="nominal sampling interval, s", callback=v.number(0, 1e5, lo_open=True, unit="s")),
+    seed: int = typer.Option(1, help="seed of every random draw (phase, sampling, noise)", callback=v.seed()),
+    out: Path = typer.Option(..., help="output light curve (.ecsv)", callback=v.out_file(".ecsv")),
+    record: Path | None = typer.Option(None, help="also write a rerun recording (.rrd)", callback=v.out_file(".rrd")),
+    albedo: float | None = typer.Option(None, help="sphere albedo (--target sphere)", callback=v.number(0, 1, lo_open=True)),
+    pole_ra_dec: str | None = typer.Option(None, help="inertial spin-axis direction 'RA,DEC' in degrees (default: normal of the phase plane)", callback=v.text()),
     noise: bool = typer.Option(True, help="photometric noise (--no-noise for the clean curve)"),
     even: bool = typer.Option(False, help="even sampling, no gaps"),
-    variant: str | None = typer.Option(None, help="Mitsuba variant: llvm_ad_rgb or scalar_rgb (default: best available)"),
-    resolution: int = typer.Option(64, help="film pixels per side"),
-    spp: int = typer.Option(4, help="samples per pixel (power of 4)"),
+    variant: str | None = typer.Option(None, help="Mitsuba variant: llvm_ad_rgb or scalar_rgb (default: best available)", callback=v.text(("llvm_ad_rgb", "scalar_rgb"))),
+    resolution: int = typer.Option(64, help="film pixels per side (4 to 1024)", callback=v.count(4, 1024)),
+    spp: int = typer.Option(4, help="samples per pixel (1, 4, 16, 64 or 256)", callback=v.one_of((1, 4, 16, 64, 256))),
 ) -> None:
     """Render a synthetic light curve and write it as ECSV."""
     from tqdm import tqdm
@@ -101,9 +89,9 @@ def render(
     from lightcurves.simulate import simulate_lightcurve
     from lightcurves.targets import get_target
 
-    axis_T, pole_I = _validate_render(target, axis, rate_deg_s, duration, cadence, albedo, spp, resolution, pole_ra_dec)
-    out = _out_path(out, ".ecsv", "--out")
-    record = _out_path(record, ".rrd", "--record")
+    axis_T, pole_I = _validate_render(target, axis, duration, cadence, albedo, pole_ra_dec)
+    if record is not None and record.absolute() == out.absolute():
+        v.fail("--record", str(record), "a file other than --out")
     tgt = get_target(target, **({"albedo": albedo} if albedo is not None else {}))
     renderer = UnresolvedRenderer(tgt, resolution=resolution, spp=spp, variant=variant)
     typer.echo(f"lcnav: rendering {target} with Mitsuba {renderer.variant}", err=True)
@@ -120,33 +108,30 @@ def render(
             noise=noise, uneven=not even, renderer=renderer, meta={"seed": seed, "resolution": resolution, "spp": spp}, progress=progress,
         )  # fmt: skip
     ts = to_timeseries(sim.lightcurve)
-    with atomic_path(out) as tmp:
-        ts.write(tmp, format="ascii.ecsv", overwrite=True)
-    typer.echo(f"lcnav: wrote {out} ({len(sim.lightcurve)} samples, {renderer.variant})", err=True)
-    if record is not None:
-        lc = sim.lightcurve
-        prior = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None)
-        from lightcurves.render import flux_to_mag
+    # the light curve and its recording appear together or not at all
+    with atomic_paths(*[p for p in (out, record) if p is not None]) as tmps:
+        ts.write(tmps[0], format="ascii.ecsv", overwrite=True)
+        if record is not None:
+            lc = sim.lightcurve
+            prior = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None)
+            from lightcurves.render import flux_to_mag
 
-        write_lightcurve_recording(record, lc, prior, mag_true=flux_to_mag(sim.flux_true_w_m2))
-        typer.echo(f"lcnav: wrote {record}", err=True)
+            write_lightcurve_recording(tmps[1], lc, prior, mag_true=flux_to_mag(sim.flux_true_w_m2), recording_id=f"lightcurve-{record.stem}")
+    typer.echo(f"lcnav: wrote {out} ({len(sim.lightcurve)} samples, {renderer.variant})" + (f" and {record}" if record is not None else ""), err=True)
 
 
 @lightcurve_app.command("prior")
 def prior(
-    path: Path = typer.Argument(..., help="light curve (.ecsv from 'render', or .csv with time,mag[,mag_err])"),
+    path: Path = typer.Argument(..., help="light curve (.ecsv from 'render', or .csv with time,mag[,mag_err])", callback=v.in_file((".ecsv", ".csv"))),
     as_json: bool = typer.Option(False, "--json", help="print the prior as JSON"),
-    false_alarm_level: float = typer.Option(0.01, help="significance level of a period"),
-    maxima_per_rotation: int | None = typer.Option(None, help="impose the number of maxima per rotation"),
-    record: Path | None = typer.Option(None, help="write the light curve and spectra to a rerun recording (.rrd)"),
+    false_alarm_level: float = typer.Option(0.01, help="significance level of a period", callback=v.number(0, 1, lo_open=True, hi_open=True)),
+    maxima_per_rotation: int | None = typer.Option(None, help="impose the number of maxima per rotation (1 to 16)", callback=v.count(1, 16)),
+    record: Path | None = typer.Option(None, help="write the light curve and spectra to a rerun recording (.rrd)", callback=v.out_file(".rrd")),
 ) -> None:
     """Extract a spin prior (rate, 1-σ, candidates) from a light curve with WindowCLEAN."""
     from lightcurves import extract_spin_prior
     from lightcurves.io import read_lightcurve
 
-    if not (0.0 < false_alarm_level < 1.0):
-        raise ValueError(f"--false-alarm-level must be in (0, 1), got {false_alarm_level}")
-    record = _out_path(record, ".rrd", "--record")
     lc = read_lightcurve(path)
     err = lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None
     p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation)

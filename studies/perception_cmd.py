@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from studies.io import atomic_path, write_json, write_table
+from studies import validate as v
+from studies.io import atomic_path, output_folder, write_json, write_table
 from studies.perception_recording import write_frame_recording
 
 perception_app = typer.Typer(help="Stereo frames, point clouds and BCPD pose measurements.", no_args_is_help=True)
@@ -72,19 +73,11 @@ def registration_trial(target, model_T: np.ndarray, rng: np.random.Generator, *,
     return (meas_T - t_true) @ R_true, R_true, t_true
 
 
-def _validate_frames(target: str, range_m: float, resolution: int, spp: int, out: Path):
+def _validate_frames(target: str):
     from lightcurves.targets import TARGETS
 
     if target not in TARGETS:
-        raise ValueError(f"--target must be one of {', '.join(sorted(TARGETS))}, got {target!r}")
-    if not (np.isfinite(range_m) and 5.0 <= range_m <= 1000.0):
-        raise ValueError(f"--range must be a distance in m within [5, 1000], got {range_m}")
-    if not 64 <= resolution <= 4096:
-        raise ValueError(f"--resolution must be an image size in pixels within [64, 4096], got {resolution}")
-    if not 1 <= spp <= 1024:
-        raise ValueError(f"--spp must be samples per pixel within [1, 1024], got {spp}")
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out must be a directory, {str(out)!r} is a file")
+        v.fail("--target", target, "one of " + ", ".join(sorted(TARGETS)))
 
 
 def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 512, spp: int = 16, estimate_error_deg: float = 5.0, estimate_error_m: float = 0.3, estimate_scale: bool = True, gamma: float = 0.1):
@@ -166,19 +159,19 @@ def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 
 
 @perception_app.command("frames")
 def frames(
-    target: str = typer.Option("box-wing", help="atlas-centaur, vespa, box-wing or sphere"),
-    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m"),
-    seed: int = typer.Option(1, help="seed of the attitude, Sun direction and estimate errors"),
-    out: Path = typer.Option(..., help="output directory"),
-    resolution: int = typer.Option(512, help="rendered image size, px (Table 1's field of view at any size; 1024 = Table 1)"),
-    spp: int = typer.Option(16, help="samples per pixel"),
-    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg"),
-    estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m"),
+    target: str = typer.Option("box-wing", help="atlas-centaur, vespa, box-wing or sphere", callback=v.text()),
+    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m (5 to 1000)", callback=v.number(5, 1000, unit="m")),
+    seed: int = typer.Option(1, help="seed of the attitude, Sun direction and estimate errors", callback=v.seed()),
+    out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
+    resolution: int = typer.Option(512, help="rendered image size, px (64 to 4096; Table 1's field of view at any size; 1024 = Table 1)", callback=v.count(64, 4096)),
+    spp: int = typer.Option(16, help="samples per pixel (1 to 1024)", callback=v.count(1, 1024)),
+    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg (0 to 180)", callback=v.number(0, 180, unit="deg")),
+    estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m (0 to 100)", callback=v.number(0, 100, unit="m")),
     rigid: bool = typer.Option(False, "--rigid", help="hold BCPD's scale at 1 (no scale gate)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
 ) -> None:
     """Render a stereo pair, build its point cloud, register it; write images, cloud and frames.rrd."""
-    _validate_frames(target, range_m, resolution, spp, out)
+    _validate_frames(target)
     from perception.stereo import luminance, tone_map
 
     frame, cloud, depth_true, model_T, C_CT, r_TC_C, meas, summary = frame_pipeline(
@@ -196,13 +189,12 @@ def frames(
     import cv2
     import pandas as pd
 
-    out.mkdir(parents=True, exist_ok=True)
+    pngs = {}
     for name, img in (("left.png", left_u8), ("right.png", right_u8)):
         ok, buf = cv2.imencode(".png", img)
         if not ok:
             raise RuntimeError(f"OpenCV could not encode {name}")
-        with atomic_path(out / name) as tmp:
-            tmp.write_bytes(buf.tobytes())
+        pngs[name] = buf.tobytes()
     table = pd.DataFrame(
         {
             "x_C_m": cloud.points_C[:, 0],
@@ -214,9 +206,13 @@ def frames(
             "depth_true_m": depth_true,
         }
     )
-    write_table(out / "cloud.parquet", table, csv=True)
-    write_frame_recording(out / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C)
-    write_json(out / "summary.json", summary)
+    with output_folder(out, "perception frames") as stage:
+        for name, data in pngs.items():
+            with atomic_path(stage / name) as tmp:
+                tmp.write_bytes(data)
+        write_table(stage / "cloud.parquet", table, csv=True)
+        write_frame_recording(stage / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C, recording_id=f"perception-frames-{out.absolute().name}")
+        write_json(stage / "summary.json", summary)
     if as_json:
         typer.echo(json.dumps(summary, indent=2))
     else:
@@ -266,16 +262,12 @@ def bench_registration(n_poses: int, seed: int, *, n_measured: int = 1000, n_mod
 
 @perception_app.command("bench")
 def bench(
-    poses: int = typer.Option(100, help="number of random registration trials"),
-    seed: int = typer.Option(1, help="seed of the model, the measurements and the misalignments"),
-    method: str = typer.Option("kdtree", help="BCPD E-step: kdtree (fast) or dense (reference)"),
+    poses: int = typer.Option(100, help="number of random registration trials (1 to 100000)", callback=v.count(1, 100000)),
+    seed: int = typer.Option(1, help="seed of the model, the measurements and the misalignments", callback=v.seed()),
+    method: str = typer.Option("kdtree", help="BCPD E-step: kdtree (fast) or dense (reference)", callback=v.text(("kdtree", "dense"))),
     as_json: bool = typer.Option(False, "--json", help="print the result as JSON"),
 ) -> None:
     """Register ~1000 measured points against a ~3000-point model over random poses; timing and accuracy."""
-    if not 1 <= poses <= 100000:
-        raise ValueError(f"--poses must be a count within [1, 100000], got {poses}")
-    if method not in ("kdtree", "dense"):
-        raise ValueError(f"--method must be kdtree or dense, got {method!r}")
     r = bench_registration(poses, seed, method=method)
     if as_json:
         typer.echo(json.dumps(r, indent=2))

@@ -16,12 +16,14 @@ from studies.blueprint import run_blueprint
 from studies.recording import recording, set_sim_time
 
 
-def write_frame_recording(path: Path, frame, left_u8, right_u8, cloud, model_C, registered_C=None) -> None:
-    """Write one stereo frame's recording to ``path`` atomically (named ``perception-frames-<folder>``)."""
+def write_frame_recording(path: Path, frame, left_u8, right_u8, cloud, model_C, registered_C=None, *,
+                          recording_id: str | None = None) -> None:
+    """Write one stereo frame's recording to ``path`` atomically (named ``recording_id``, default ``perception-frames-<folder>``)."""
     import rerun as rr
 
     path = Path(path)
-    with recording(path, recording_id=f"perception-frames-{path.parent.name}", blueprint=run_blueprint(cameras=True, cloud=True)) as rec:
+    rid = recording_id or f"perception-frames-{path.parent.name}"
+    with recording(path, recording_id=rid, blueprint=run_blueprint(cameras=True, cloud=True)) as rec:
         set_sim_time(rec, 0.0)
         rec.log("/camera/left/image", rr.Image(left_u8))
         rec.log("/camera/right/image", rr.Image(right_u8))

@@ -23,7 +23,6 @@ Writes, after everything has run (nothing is written on an error):
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -36,7 +35,8 @@ from estimators.navigation import FILTERS, SOURCES, NavigationRun
 from estimators.prior import PROXY_MODES, SpinPrior, prior_from_rate, tuning_for_prior
 from estimators.tuning import TUNINGS, get_tuning
 from perception.simulated_pose import parse_faults
-from studies.io import write_json, write_table
+from studies import validate as v
+from studies.io import output_folder, write_json, write_table
 from studies.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, fraction_in_band, nees
 from studies.nav_study import K_STATES, navigate, one_axis, record_navigation
 from studies.scenarios import get_scenario
@@ -47,31 +47,77 @@ ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_
 MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
 
 
-def _floats(text: str, n: int, flag: str) -> np.ndarray:
+#: Most filter steps per run (duration / dt) and most Monte-Carlo runs: a bound on the work one command may ask for.
+MAX_STEPS = 10**5
+MAX_RUNS = 1000
+#: Largest prior rate magnitude, deg/s (a tumbling body spins far slower than 1 turn/s).
+MAX_RATE_DEG_S = 360.0
+#: Largest --prior-json, bytes.
+MAX_PRIOR_BYTES = 2**20
+
+
+def _floats(text: str, n: int, flag: str, max_abs: float = 1e12) -> np.ndarray:
+    return v.check_floats(flag, text, n, max_abs=max_abs)
+
+
+def _read_measurements(path: Path, t_span: tuple[float, float]):
+    """Pose measurements from a Parquet/CSV file: every row finite, unit quaternions, strictly increasing times in the run."""
+    v.check_in_file("--measurements", path, (".parquet", ".csv"))
+    where = f"--measurements {str(path)!r}"
     try:
-        v = np.array([float(s) for s in str(text).split(",")], dtype=float)
-    except ValueError:
-        raise ValueError(f"{flag} must be {n} comma-separated numbers, got {text!r}") from None
-    if v.shape != (n,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{flag} must be {n} comma-separated finite numbers, got {text!r}")
-    return v
-
-
-def _read_measurements(path: Path):
-    if not path.is_file():
-        raise FileNotFoundError(f"--measurements {path} does not exist")
-    df = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+        if path.suffix.lower() == ".parquet":
+            df = pd.read_parquet(path)
+        else:
+            v.check_no_nul(where, path.read_bytes())
+            df = pd.read_csv(path)
+    except (ValueError, OSError, ImportError) as e:  # pyarrow/pandas parse errors are ValueErrors
+        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}); expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
     missing = [c for c in MEASUREMENT_COLUMNS if c not in df.columns]
     if missing:
-        raise ValueError(f"--measurements {path} lacks columns {missing}; expected {MEASUREMENT_COLUMNS}")
+        raise v.InputError(f"{where} lacks columns {missing}; expected {', '.join(MEASUREMENT_COLUMNS)}")
+    if len(df) < 2:
+        raise v.InputError(f"{where} holds {len(df)} row(s); expected at least 2 measurements")
+    for c in MEASUREMENT_COLUMNS:
+        col = df[c]
+        if col.dtype.kind not in "fiu":
+            bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
+            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
     a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
     if bad.size:
-        raise ValueError(f"--measurements {path}: row {int(bad[0])} has a NaN or Inf measurement")
+        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell; expected finite measurements")
+    t = a[:, 0]
+    if np.any(np.diff(t) <= 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}; expected strictly increasing times")
+    if not np.any((t >= t_span[0]) & (t <= t_span[1])):
+        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s; expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
     q = a[:, 1:5]
     if np.any(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-6):
-        raise ValueError(f"--measurements {path}: q_TS must be unit quaternions")
-    return a[:, 0], q, a[:, 5:8]
+        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...; expected unit quaternions")
+    if np.any(np.abs(a[:, 5:8]) > 1e7):
+        raise v.InputError(f"{where}: a position beyond 1e7 m; expected relative positions within 10000 km")
+    return t, q, a[:, 5:8]
+
+
+def _read_prior_json(path: Path, axis: str):
+    """A prior from ``lcnav lightcurve prior --json``: a JSON object with numbers ``rate_rad_s`` and ``rate_sigma_rad_s``."""
+    v.check_in_file("--prior-json", path, max_bytes=MAX_PRIOR_BYTES)
+    where = f"--prior-json {str(path)!r}"
+    data = path.read_bytes()
+    v.check_no_nul(where, data)
+    try:
+        d = json.loads(data)
+    except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
+        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}); expected an object from `lcnav lightcurve prior --json`") from None
+    if not isinstance(d, dict):
+        raise v.InputError(f"{where} holds a JSON {type(d).__name__}; expected an object with rate_rad_s and rate_sigma_rad_s")
+    if d.get("rate_rad_s") is None:
+        raise v.InputError(f"prior without a rate: {where} has no rate_rad_s (no significant period in the light curve)")
+    max_rate = np.radians(MAX_RATE_DEG_S)
+    rate = v.check_number(f"{where}: rate_rad_s", d["rate_rad_s"], 0.0, max_rate, unit="rad/s")
+    sigma = v.check_number(f"{where}: rate_sigma_rad_s", d.get("rate_sigma_rad_s"), 0.0, max_rate, lo_open=True, unit="rad/s")
+    return prior_from_rate(rate, sigma, _floats(axis, 3, "--prior-axis"), source=str(path))
 
 
 def _metrics_dict(m) -> dict:
@@ -96,97 +142,69 @@ def _states_table(tr: Truth, run: NavigationRun) -> pd.DataFrame:
 
 
 def run(
-    scenario: str = typer.Option("SC3", help="Scenario name (SC1-SC4)."),
-    filter_: str = typer.Option("ekf", "--filter", help=f"Filter: {'|'.join(FILTERS)}."),
-    duration: float = typer.Option(300.0, help="Simulated time, s."),
-    dt: float = typer.Option(1.0, help="Sampling time tau_s of the filter and the pose estimator, s."),
-    prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises)."),
-    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (002 §5.3)."),
-    prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error)."),
-    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis."),
-    prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis)."),
-    proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}."),
-    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'."),
-    p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states)."),
-    fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise)."),
-    runs: int = typer.Option(1, help="Monte-Carlo runs (seeds seed..seed+runs-1)."),
-    seed: int = typer.Option(1, help="Seed of the first run."),
-    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d)."),
-    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d)."),
-    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d)."),
-    gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates)."),
-    gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before)."),
-    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters)."),
-    measurements: Optional[Path] = typer.Option(None, help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating."),
-    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd."),
+    scenario: str = typer.Option("SC3", help="Scenario name (SC1-SC4).", callback=v.text()),
+    filter_: str = typer.Option("ekf", "--filter", help=f"Filter: {'|'.join(FILTERS)}.", callback=v.text(FILTERS)),
+    duration: float = typer.Option(300.0, help="Simulated time, s (at most 1e5 filter steps).", callback=v.number(0, 1e6, lo_open=True, unit="s")),
+    dt: float = typer.Option(1.0, help="Sampling time tau_s of the filter and the pose estimator, s.", callback=v.number(0, 600, lo_open=True, unit="s")),
+    prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises).", callback=v.text(PRIOR_USES)),
+    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (002 §5.3).", callback=v.number(0, 10, lo_open=True)),
+    prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error).", callback=v.text()),
+    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis.", callback=v.path_text()),
+    prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
+    proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'.", callback=v.text(TUNINGS)),
+    p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states).", callback=v.text()),
+    fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
+    runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),
+    seed: int = typer.Option(1, help="Seed of the first run.", callback=v.seed(v.MAX_SEED - MAX_RUNS)),
+    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).", callback=v.text(NOISE_MODELS)),
+    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).", callback=v.number(0, 3.15, lo_open=True, unit="rad")),
+    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).", callback=v.number(0, 1e3, lo_open=True, unit="m")),
+    gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates).", callback=v.number(0, 1, hi_open=True)),
+    gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before).", callback=v.number(0, 1e6, unit="s")),
+    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters).", callback=v.count(0, 10**4)),
+    measurements: Optional[Path] = typer.Option(None, help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.", callback=v.path_text()),
+    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
-    # ---- validate everything before any work or output
-    if filter_ not in FILTERS:
-        raise ValueError(f"--filter must be one of {'|'.join(FILTERS)}, got {filter_!r}")
+    # ---- validate everything before any work or output (bounds of single options: their callbacks)
     sc = get_scenario(scenario)
-    for name, value in (("--duration", duration), ("--dt", dt)):
-        if not math.isfinite(value) or value <= 0:
-            raise ValueError(f"{name} must be a positive finite number of seconds, got {value}")
-    if dt > duration:
-        raise ValueError(f"--dt ({dt} s) must not exceed --duration ({duration} s)")
-    if prior not in PRIOR_USES:
-        raise ValueError(f"--prior must be one of {'|'.join(PRIOR_USES)}, got {prior!r}")
+    if dt > duration or duration / dt > MAX_STEPS:
+        v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} filter steps")
     if reacquire_window != 0 and reacquire_window < 3:
-        raise ValueError(f"--reacquire-window must be 0 (off) or at least 3 measurements, got {reacquire_window}")
-    if proxy_mode not in PROXY_MODES:
-        raise ValueError(f"--proxy-mode must be one of {'|'.join(PROXY_MODES)}, got {proxy_mode!r}")
-    if not (math.isfinite(prior_error) and prior_error > 0):
-        raise ValueError(f"--prior-error must be a positive fraction (e.g. 0.05), got {prior_error}")
-    if runs < 1:
-        raise ValueError(f"--runs must be at least 1, got {runs}")
-    if seed < 0:
-        raise ValueError(f"--seed must be a non-negative integer, got {seed}")
-    if noise not in NOISE_MODELS:
-        raise ValueError(f"--noise must be one of {'|'.join(NOISE_MODELS)}, got {noise!r}")
-    for name, value in (("--sigma-q-rad", sigma_q_rad), ("--sigma-r-m", sigma_r_m)):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {value}")
+        v.fail("--reacquire-window", reacquire_window, "0 (off) or at least 3 measurements")
     pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
-    if not (0.0 <= gate_confidence < 1.0):
-        raise ValueError(f"--gate-confidence must lie in [0, 1), got {gate_confidence}")
     if out is None:
-        raise ValueError("--out DIR is required (where metrics.json, states.parquet and run.rrd go)")
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} exists and is not a folder")
-    faults = parse_faults([_floats(fault, 2, "--fault")] if fault else ())
-    tr = simulate_truth(sc, duration, dt)
-    w_true = tr.target[0, 10:13]
-    spin = None
+        raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
     if prior_json is not None and prior_rate_deg_s is not None:
-        raise ValueError("give the prior either as --prior-json or as --prior-rate-deg-s, not both")
-    if prior != "none" or prior_rate_deg_s is not None or prior_json is not None:
-        if prior_json is not None:
-            if not prior_json.is_file():
-                raise FileNotFoundError(f"--prior-json {prior_json} does not exist")
-            try:
-                d = json.loads(prior_json.read_text())
-            except json.JSONDecodeError as e:
-                raise ValueError(f"--prior-json {prior_json} is not JSON: {e}") from None
-            if not isinstance(d, dict) or d.get("rate_rad_s") is None:
-                raise ValueError(f"prior without a rate: --prior-json {prior_json} has no rate_rad_s (no significant period in the light curve)")
-            spin = prior_from_rate(d["rate_rad_s"], d.get("rate_sigma_rad_s"), _floats(prior_axis, 3, "--prior-axis"), source=str(prior_json))
-        elif prior_rate_deg_s is not None:
-            if not prior_rate_deg_s.strip():
-                raise ValueError("prior without a rate: --prior-rate-deg-s must be 'wx,wy,wz' in deg/s")
-            w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)"))
-            spin = SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
-        else:
-            spin = SpinPrior.from_truth(w_true, prior_error)
-    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
-    tun = get_tuning(tuning_name)
-    P0 = tun.P_0
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+    faults = ()
+    if fault:
+        start, length = _floats(fault, 2, "--fault", max_abs=1e6)
+        if start < 0 or length <= 0:
+            v.fail("--fault", fault, "'START,LENGTH' in s with START >= 0 and LENGTH > 0")
+        faults = parse_faults([(start, length)])
+    spin = None
+    if prior_json is not None:
+        spin = _read_prior_json(prior_json, prior_axis)
+    elif prior_rate_deg_s is not None:
+        if not prior_rate_deg_s.strip():
+            raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+        w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
+        spin = SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
+    P0 = None
     if p0_diag is not None:
         d = _floats(p0_diag, 14, "--p0-diag")
         if np.any(d <= 0):
-            raise ValueError(f"--p0-diag: P_0 must be positive definite (all 14 variances > 0), got {p0_diag!r}")
+            v.fail("--p0-diag", p0_diag, "14 variances > 0 (P_0 positive definite)")
         P0 = np.diag(d)
-    meas = _read_measurements(measurements) if measurements is not None else None
+    meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
+    tr = simulate_truth(sc, duration, dt)
+    if spin is None and prior != "none":
+        spin = SpinPrior.from_truth(tr.target[0, 10:13], prior_error)
+    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
+    tun = get_tuning(tuning_name)
+    P0 = tun.P_0 if P0 is None else P0
     consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
 
     # ---- run
@@ -226,11 +244,11 @@ def run(
                    "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()},
     }
 
-    # ---- write (atomically, after everything has succeeded)
-    out.mkdir(parents=True, exist_ok=True)
-    write_table(out / "states.parquet", _states_table(tr, first))
-    record_navigation(out / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
-    write_json(out / "metrics.json", metrics)
+    # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
+    with output_folder(out, "run") as stage:
+        write_table(stage / "states.parquet", _states_table(tr, first))
+        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
+        write_json(stage / "metrics.json", metrics)
     typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
 
 

@@ -32,7 +32,8 @@ import typer
 
 from studies import chain_study, combina_study, coverage_study, init_study, proxy_study, timing_study, truth_study, tuning_study
 from studies.config import Field, StudyConfig, default_config_path, load_config
-from studies.io import write_json, write_table
+from studies import validate as v
+from studies.io import COMPLETE_FILE, output_folder, write_json, write_table
 from studies.sweep import RunSpec, check_scheduler, check_workers, run_sweep
 from studies.tables import Table, write_tables
 
@@ -95,14 +96,21 @@ def default_out_dir(name: str) -> Path:
     return Path("runs") / f"{name}-{datetime.datetime.now(datetime.UTC):%Y%m%dT%H%M%SZ}"
 
 
+#: Most runs one study may expand to.
+MAX_RUNS = 10**5
+
+
 def _check_out_dir(out: Path, config: StudyConfig) -> None:
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(f"--out {out} exists and is not a folder")
+    """A folder to resume must hold a study of the same config (``study.json``); read under the --out lock."""
     stamp = out / "study.json"
     if stamp.is_file():
-        old = json.loads(stamp.read_text())
-        if json.dumps(old, sort_keys=True) != config.identity_json():
-            raise ValueError(f"--out {out} holds a {old.get('study')!r} study with another config (see {stamp}); choose a new --out")
+        try:
+            old = json.loads(stamp.read_text())
+        except (ValueError, RecursionError):
+            raise v.InputError(f"--out {str(out)!r}: study.json is not JSON; expected the folder of a study (or a new --out)") from None
+        if not isinstance(old, dict) or json.dumps(old, sort_keys=True) != config.identity_json():
+            study = old.get("study") if isinstance(old, dict) else None
+            raise v.InputError(f"--out {str(out)!r} holds a {study!r} study with another config (see {stamp}); expected a new --out or the same config")
 
 
 @dataclass(frozen=True)
@@ -123,27 +131,35 @@ def run_study(name: str, *, config_path: Path | None = None, quick: bool = False
     check_workers(workers)
     if scheduler is not None and workers is not None:
         raise ValueError("--workers sizes the local cluster; it cannot be combined with --scheduler (size the remote cluster there)")
+    if config_path is not None:
+        v.check_in_file("--config", config_path, (".toml",))
     config = study.load(config_path, quick=quick)
     specs = study.expand(config)
-    out = Path(out) if out is not None else default_out_dir(name)
-    _check_out_dir(out, config)
-    write_json(out / "study.json", config.identity())
-    sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name)
-    write_table(out / "runs.parquet", sweep.table, csv=True)
-    tables = list(study.summarise(sweep.table, config, out))
-    if not tables or tables[0].name != "summary":
-        raise RuntimeError(f"study {name}: summarise must return the 'summary' table first")
-    md = write_tables(out, tables, heading=f"{name}{' (quick)' if quick else ''}: {len(sweep.table)} runs")
+    if len(specs) > MAX_RUNS:
+        raise v.InputError(f"{Path(config.source).name}: {len(specs)} runs; expected a study of at most {MAX_RUNS} runs")
+    out = v.check_out_dir("--out", Path(out) if out is not None else default_out_dir(name))
+
+    def prepare():  # the first write, once the cluster answers: the folder is unfinished from here on
+        (out / COMPLETE_FILE).unlink(missing_ok=True)
+        write_json(out / "study.json", config.identity())
+
+    with output_folder(out, "study", staged=False, check=lambda d: _check_out_dir(d, config)):
+        sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name, prepare=prepare)
+        write_table(out / "runs.parquet", sweep.table, csv=True)
+        tables = list(study.summarise(sweep.table, config, out))
+        if not tables or tables[0].name != "summary":
+            raise RuntimeError(f"study {name}: summarise must return the 'summary' table first")
+        md = write_tables(out, tables, heading=f"{name}{' (quick)' if quick else ''}: {len(sweep.table)} runs")
     return StudyOutcome(out, sweep.table, tables, md, sweep.n_executed, sweep.n_skipped)
 
 
 def study(
-    name: str = typer.Argument(..., help=f"Study to run: {', '.join(STUDIES)}."),
+    name: str = typer.Argument(..., help=f"Study to run: {', '.join(STUDIES)}.", callback=v.text()),
     quick: bool = typer.Option(False, "--quick", help="Small size: the config's quick table of overrides."),
-    config: Optional[Path] = typer.Option(None, "--config", help="Study config TOML (default studies/configs/NAME.toml)."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT."),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores)."),
+    config: Optional[Path] = typer.Option(None, "--config", help="Study config TOML (default studies/configs/NAME.toml).", callback=v.path_text()),
+    out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume.", callback=v.out_dir()),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT.", callback=v.text()),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores; at most 4 per core)."),
 ) -> None:
     """Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."""
     result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers)

@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from studies.io import atomic_path, write_json
+from studies.validate import check_count, fail
 
 RUN_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 SCHEDULER_RE = re.compile(r"^(tcp|tls)://[^\s:/]+:\d{1,5}$")
@@ -119,19 +120,28 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+#: Most local Dask worker processes per core (more only thrash memory and the scheduler).
+MAX_WORKERS_PER_CORE = 4
+
+
 def check_scheduler(address: str | None) -> None:
-    """ValueError unless ``address`` is None or of the form ``tcp://HOST:PORT``."""
-    if address is not None and not SCHEDULER_RE.match(address):
-        raise ValueError(f"--scheduler must be of the form tcp://HOST:PORT, got {address!r}")
+    """ValueError unless ``address`` is None or of the form ``tcp://HOST:PORT`` (port 1-65535)."""
+    if address is not None and (not isinstance(address, str) or not SCHEDULER_RE.match(address) or not 0 < int(address.rsplit(":", 1)[1]) < 65536):
+        fail("--scheduler", address, "the form tcp://HOST:PORT (a Dask scheduler, port 1-65535)")
 
 
 def check_workers(workers: int | None) -> None:
-    if workers is not None and (isinstance(workers, bool) or int(workers) != workers or workers < 1):
-        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
+    """ValueError unless ``workers`` is None or an integer within ``[1, MAX_WORKERS_PER_CORE × cores]``."""
+    if workers is not None:
+        check_count("--workers", workers, 1, MAX_WORKERS_PER_CORE * default_workers())
+
+
+#: How long a ``--scheduler`` has to answer, s.
+CONNECT_TIMEOUT_S = 20.0
 
 
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float = 20.0):
+def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float | None = None):
     """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes.
 
     An unreachable scheduler is bad input: ValueError naming the address.
@@ -140,11 +150,12 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
 
     check_scheduler(scheduler)
     check_workers(workers)
+    connect_timeout_s = CONNECT_TIMEOUT_S if connect_timeout_s is None else connect_timeout_s
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__})") from None
+            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}); expected a running scheduler at that address") from None
         with client:
             yield client
         return
@@ -237,10 +248,14 @@ def run_sweep(
     workers: int | None = None,
     progress: bool = True,
     desc: str = "runs",
+    prepare: Callable[[], None] | None = None,
 ) -> SweepResult:
     """Execute every spec without a stored result; return the table of all of them.
 
     ``execute`` must be importable by the workers (a module-level function).
+    ``prepare()`` is called once the cluster is up (or at once if every run
+    is stored), before the first result is written: a caller's first write
+    (``study.json``) waits until an unreachable ``--scheduler`` has failed.
     Results are written as they arrive. If some runs raise, the others are
     still written and :class:`SweepError` names the failed ones.
     """
@@ -253,10 +268,14 @@ def run_sweep(
     todo = [s for s in specs if read_result(out_dir, s) is None]
     n_skipped = len(specs) - len(todo)
     failures = []
+    if not todo and prepare is not None:
+        prepare()
     if todo:
         with dask_client(scheduler, workers) as client, tqdm(
             total=len(specs), initial=n_skipped, desc=desc, unit="run", disable=not progress
         ) as bar:
+            if prepare is not None:
+                prepare()
             futures = [client.submit(execute_in_tmp, execute, s, pure=False, key=f"lcnav-{s.run_id}-{os.urandom(4).hex()}") for s in todo]
             spec_of = {fut.key: s for fut, s in zip(futures, todo)}
             for fut in as_completed(futures):

@@ -28,9 +28,9 @@ def test_frames_writes_images_cloud_recording_and_json(tmp_path, capsys):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--target", "envisat"], "--target must be one of"),
-        (["--range", "2"], "--range must be a distance in m"),
-        (["--resolution", "10"], "--resolution must be"),
+        (["--target", "envisat"], "--target 'envisat': expected one of"),
+        (["--range", "2"], "--range 2.0: expected a finite number within [5, 1000] m"),
+        (["--resolution", "10"], "--resolution 10: expected an integer within [64, 4096]"),
     ],
 )
 def test_frames_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, args, message):

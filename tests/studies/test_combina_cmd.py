@@ -28,12 +28,12 @@ def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
     "args, message",
     [
         (["--target", "cube"], "target must be one of asymmetric|symmetric"),
-        (["--rate-hz", "0"], "rate-hz must be a positive"),
-        (["--rate-hz", "-1"], "rate-hz must be a positive"),
-        (["--duration-tu", "0"], "duration-tu must be a positive"),
-        (["--duration-tu", "-2"], "duration-tu must be a positive"),
+        (["--rate-hz", "0"], "--rate-hz 0.0: expected a finite number within (0, 10] Hz"),
+        (["--rate-hz", "-1"], "--rate-hz -1.0: expected a finite number within (0, 10] Hz"),
+        (["--duration-tu", "0"], "--duration-tu 0.0: expected a finite number within (0, 100] TU"),
+        (["--duration-tu", "-2"], "--duration-tu -2.0: expected a finite number"),
         (["--prior", "maybe"], "prior must be one of none|init|proxy"),
-        (["--prior-error", "2"], "prior-error must be"),
+        (["--prior-error", "2"], "--prior-error 2.0: expected a finite number within (0, 1)"),
     ],
 )
 def test_bad_input_one_line_nonzero_nothing_written(tmp_path, capsys, args, message):

@@ -80,7 +80,7 @@ def test_inspect_simulate_output_folder(tmp_path, capsys):
     (["/nonexistent/run"], "does not exist"),
     (["{tmp}/x.txt"], "must be a .rrd file or a run folder"),
     (["{tmp}"], "holds no .rrd recording"),
-    (["{rrd}", "--export", "{tmp}/x.csv"], "--export must name a .parquet file"),
+    (["{rrd}", "--export", "{tmp}/x.csv"], "expected a .parquet file name"),
 ])
 def test_inspect_bad_input(quick_truth, tmp_path, capsys, args, message):
     (tmp_path / "x.txt").write_text("x")

@@ -74,17 +74,17 @@ def test_prior_from_a_light_curve_json(tmp_path):
 @pytest.mark.parametrize(
     "extra, message",
     [
-        (["--filter", "kf"], "--filter must be one of ekf|ukf"),
+        (["--filter", "kf"], "--filter 'kf': expected one of ekf, ukf"),
         (["--prior", "init", "--prior-rate-deg-s", " "], "prior without a rate"),
-        (["--prior", "init", "--prior-rate-deg-s", "0,nan,3"], "--prior-rate-deg-s (prior rate) must be 3 comma-separated finite numbers"),
-        (["--p0-diag", ",".join(["1"] * 13 + ["-1"])], "P_0 must be positive definite"),
-        (["--p0-diag", "1,2"], "--p0-diag must be 14"),
-        ("MEAS", "row 4 has a NaN or Inf measurement"),
+        (["--prior", "init", "--prior-rate-deg-s", "0,nan,3"], "--prior-rate-deg-s (prior rate) '0,nan,3': expected 3 comma-separated finite numbers"),
+        (["--p0-diag", ",".join(["1"] * 13 + ["-1"])], "expected 14 variances > 0 (P_0 positive definite)"),
+        (["--p0-diag", "1,2"], "--p0-diag '1,2': expected 14 comma-separated"),
+        ("MEAS", "row 4 has a NaN, Inf or empty cell"),
         ("NORATE", "prior without a rate"),
-        (["--prior", "sometimes"], "--prior must be one of none|init|proxy"),
-        (["--tuning", "fast"], "unknown tuning 'fast'"),
-        (["--fault", "10"], "--fault must be 2"),
-        (["--runs", "0"], "--runs must be at least 1"),
+        (["--prior", "sometimes"], "--prior 'sometimes': expected one of none, init, proxy"),
+        (["--tuning", "fast"], "--tuning 'fast': expected one of"),
+        (["--fault", "10"], "--fault '10': expected 2 comma-separated"),
+        (["--runs", "0"], "--runs 0: expected an integer within [1, 1000]"),
     ],
 )
 def test_bad_input_one_line_nonzero_exit_no_output(tmp_path, capsys, extra, message):

@@ -32,11 +32,11 @@ def test_simulate_writes_truth_table_and_recording(tmp_path):
     "args, message",
     [
         (["--scenario", "SC9"], "known scenarios: SC1, SC2, SC3, SC4, COMBINA"),
-        (["--duration", "-5"], "--duration must be a positive"),
-        (["--duration", "inf"], "--duration must be a positive"),
-        (["--dt", "0"], "--dt must be a positive"),
-        (["--dt", "nan"], "--dt must be a positive"),
-        (["--seed", "-1"], "--seed must be a non-negative"),
+        (["--duration", "-5"], "--duration -5.0: expected a finite number within (0, 1e+06] s"),
+        (["--duration", "inf"], "--duration inf: expected a finite number"),
+        (["--dt", "0"], "--dt 0.0: expected a finite number within (0, 3600] s"),
+        (["--dt", "nan"], "--dt nan: expected a finite number"),
+        (["--seed", "-1"], "--seed -1: expected an integer within [0, "),
     ],
 )
 def test_bad_input_one_line_no_output(tmp_path, args, message):
