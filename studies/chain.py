@@ -39,7 +39,7 @@ from estimators.prior import SpinPrior, prior_from_rate, tuning_for_prior
 from estimators.tuning import get_tuning
 from lightcurves.simulate import SimulatedLightCurve
 from studies.io import atomic_path
-from studies.metrics import DEFAULT_THRESHOLDS, GROUPS, convergence_time, evaluate, state_errors
+from studies.metrics import DEFAULT_THRESHOLDS, GROUPS, UNITS, convergence_time, evaluate, state_errors
 from studies.scenarios import Scenario
 from studies.truth import Truth
 
@@ -49,7 +49,6 @@ ARM_LABELS = {"none": "no prior", "tuning": "prior: tuning", "init": "prior: tun
 #: Tuning without a prior: the general filter of the tuning study (best on SC4).
 GENERAL_TUNING = "general"
 #: Units of each metric group (attitude error as an angle).
-UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
 
 
 @dataclass(frozen=True)

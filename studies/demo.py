@@ -35,11 +35,11 @@ import numpy as np
 import pandas as pd
 import typer
 
-from studies.chain import (ARM_LABELS, UNITS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
+from studies.chain import (ARM_LABELS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
                            record_lightcurve, record_run, render_prior)
 from lightcurves.io import to_timeseries
 from studies.io import atomic_path, output_folder, write_json, write_table, write_text
-from studies.metrics import GROUPS
+from studies.metrics import GROUPS, UNITS
 from studies.scenarios import get_scenario
 from studies.tables import Table, write_tables
 from studies.truth import simulate_truth

@@ -48,6 +48,8 @@ from estimators.attitude import attitude_angle
 from estimators.error_state import ERROR_SLICES, boxminus
 
 GROUPS = ("q", "w", "r", "v", "k")
+#: Unit of each group's error magnitude (for tables, figures and printed summaries).
+UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
 #: Default convergence thresholds per group (rad, rad/s, m, m/s, –).
 DEFAULT_THRESHOLDS = {"q": float(np.radians(2.0)), "w": float(np.radians(2.0)), "r": 1.0, "v": 0.1, "k": 0.2}
 #: Settling time (s since the first sample) after which NEES and NIS are tested.

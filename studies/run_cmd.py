@@ -37,7 +37,7 @@ from estimators.tuning import TUNINGS, get_tuning
 from perception.simulated_pose import parse_faults
 from studies import validate as v
 from studies.io import output_folder, write_json, write_table
-from studies.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, fraction_in_band, nees
+from studies.metrics import GROUPS, SETTLING_S, UNITS, chi_square_band, evaluate, fraction_in_band, nees
 from studies.nav_study import K_STATES, navigate, one_axis, record_navigation
 from studies.scenarios import get_scenario
 from studies.truth import RELATIVE_COLUMNS, Truth, simulate_truth
@@ -249,7 +249,30 @@ def run(
         write_table(stage / "states.parquet", _states_table(tr, first))
         record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
         write_json(stage / "metrics.json", metrics)
+    for line in summary_lines(metrics):
+        typer.echo(line)
     typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
+
+
+def summary_lines(metrics: dict) -> list[str]:
+    """What ``lcnav run`` prints of ``metrics.json``: per group t_conv and RMSE (mean over the runs), consistency, gates."""
+    cfg = metrics["config"]
+
+    def pct(x, digits=0):
+        return "–" if x is None else f"{100 * x:.{digits}f} %"
+
+    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}, tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
+             f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)",
+             f"  {'group':6s}{'t_conv (s)':>12s}{'RMSE':>14s}"]
+    for g, c in metrics["components_mean_over_runs"].items():
+        t_conv, rmse = c["convergence_time_s"], c["steady_state_rmse"]
+        lines.append(f"  {g:6s}{'–' if t_conv is None else f'{t_conv:.1f}':>12s}{'–' if rmse is None else f'{rmse:.3g}':>14s} {UNITS[g]}")
+    n, nis, gate = metrics["nees"], metrics["nis_fraction_in_95"], metrics["gate_rejection_rate"]
+    lines.append(f"  from t >= {n['from_s']:g} s: NEES in its 95 % band on {pct(metrics['nees_fraction_in_95'])} of the steps "
+                 f"({n['dof']} dof); NIS in band {', '.join(f'{s} {pct(v)}' for s, v in nis.items())}")
+    lines.append(f"  gates (confidence {cfg['gate_confidence']}): rejected {', '.join(f'{s} {pct(v, 1)}' for s, v in gate.items())}"
+                 + (f"; {len(metrics['reacquisitions'])} re-acquisition(s)" if metrics["reacquisitions"] else ""))
+    return lines
 
 
 def register(app: typer.Typer) -> None:

@@ -12,13 +12,20 @@ from tests.rerun_cli import assert_rrd_verifies, rerun
 
 
 
-def test_run_writes_metrics_states_and_recording(tmp_path):
+def test_run_writes_metrics_states_and_recording(tmp_path, capsys):
     out = tmp_path / "run"
     args = ["run", "--scenario", "SC1", "--filter", "ukf", "--duration", "40", "--dt", "1", "--prior", "proxy", "--prior-error", "0.05",
             "--fault", "20,5", "--runs", "2", "--seed", "3", "--out", str(out)]
     assert main(args) == 0
     m = json.loads((out / "metrics.json").read_text())
     assert m["filter"] == "ukf" and m["scenario"] == "SC1"
+    # the printed summary is metrics.json's: one line per group with its mean t_conv and RMSE, then NEES/NIS and gates
+    printed = capsys.readouterr().out.splitlines()
+    for g, c in m["components_mean_over_runs"].items():
+        row = next(line.split() for line in printed if line.split()[:1] == [g])
+        t_conv, rmse = c["convergence_time_s"], c["steady_state_rmse"]
+        assert row[1] == ("–" if t_conv is None else f"{t_conv:.1f}") and row[2] == ("–" if rmse is None else f"{rmse:.3g}")
+    assert any("NEES in its 95 % band" in line for line in printed) and any(line.strip().startswith("gates") for line in printed)
     assert set(m["components"]) == {"q", "w", "r", "v", "k"}
     for c in m["components"].values():
         assert set(c) == {"convergence_time_s", "steady_state_rmse"}
