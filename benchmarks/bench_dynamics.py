@@ -1,4 +1,4 @@
-"""Dynamics: cost of the 15-state relative model (eq. 21 of 002_…) and of 300 s of it.
+"""Dynamics: cost of the 15-state relative model (eq. 21 of Renis et al.) and of 300 s of it.
 
 Baseline measured in the same run: the truth path, two independent DOP853
 integrations (servicer and target, 1e-12) over the same 300 s.

@@ -75,7 +75,7 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
                          f"{full / 60:.0f}", f"{base / full:.2f}×"))
             per_level = res.runs.groupby("rate_level_hz")["elapsed_s"].median()
     lines = [
-        "## Coverage study (`lcnav study coverage`, 000 Fig. 20): full-size wall time from a measured fraction",
+        "## Coverage study (`lcnav study coverage`, Maestrini et al. Fig. 20): full-size wall time from a measured fraction",
         "",
         f"Measured: every rate level at the full horizon (half an orbit, 0.33 Hz) with {n_ics} of the {full_ics} initial "
         f"conditions per level ({n_ics / full_ics:.0%} of the runs); full-size wall time extrapolated linearly "
@@ -92,12 +92,12 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
     return "\n".join(lines)
 
 
-#: The filter studies of 002 §6 (their --quick sizes are set in studies/configs/<name>.toml).
+#: The filter studies of Renis et al. §6 (their --quick sizes are set in studies/configs/<name>.toml).
 FILTER_STUDIES = ("tuning", "init", "proxy")
 
 
 def filter_studies_section(root: Path) -> str:
-    """Wall time of the 002 §6 studies at --quick with 1 and 2 local workers, and their recording size per run."""
+    """Wall time of the Renis et al. §6 studies at --quick with 1 and 2 local workers, and their recording size per run."""
     rows = []
     for name in FILTER_STUDIES:
         base = None
@@ -111,7 +111,7 @@ def filter_studies_section(root: Path) -> str:
             rows.append((name, workers, len(res.runs), f"{wall:.1f}", f"{base / wall:.2f}×", f"{res.runs['elapsed_s'].median():.2f}",
                          f"{res.runs['n_steps'].iloc[0]}", f"{statistics.mean(sizes) / 1024:.0f}"))
     lines = [
-        "### Filter studies of 002 §6 at `--quick` (`lcnav study tuning|init|proxy --quick`)",
+        "### Filter studies of Renis et al. §6 at `--quick` (`lcnav study tuning|init|proxy --quick`)",
         "",
         "| study | local workers | runs | wall time (s) | speed-up vs 1 worker | median run (s) | steps per run | recording per run (KiB) |",
         "|---|---|---|---|---|---|---|---|",

@@ -6,7 +6,7 @@ Conventions (DESIGN.md):
 * ``q_AB`` maps vectors from frame B to frame A: ``v_A = R(q_AB) v_B``, so
   ``q_AC = q_AB ⊗ q_BC`` and ``R(q_AC) = R(q_AB) R(q_BC)``;
 * kinematics ``q̇_AB = ½ q_AB ⊗ [0, ω_B]`` with ω the rate of B relative to A
-  expressed in B (eqs 2–3 of ``002_…``; ``Q(q)`` of eq. 3 is exactly the matrix
+  expressed in B (eqs 2–3 of Renis et al.; ``Q(q)`` of eq. 3 is exactly the matrix
   of ``ω ↦ q ⊗ [0, ω]``);
 * MRPs ``σ = q_v / (1 + q0)``, so ``σ`` and ``q`` describe the same rotation and
   ``R(σ) = R(q)``.
@@ -93,7 +93,7 @@ def quat_conjugate(q) -> np.ndarray:
 
 
 def quat_normalize(q) -> np.ndarray:
-    """Unit quaternion ``q / |q|`` (eq. 28 of ``002_…``). Raises on a zero quaternion."""
+    """Unit quaternion ``q / |q|`` (eq. 28 of Renis et al.). Raises on a zero quaternion."""
     q = _as_float(q)
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if np.any(~np.isfinite(n)) or np.any(n == 0.0):
@@ -155,11 +155,11 @@ def mrp_to_dcm(sigma) -> np.ndarray:
 
 
 def dcm_to_mrp(C, *, eps: float = 1e-2) -> np.ndarray:
-    """MRP with ``|σ| ≤ 1`` of a rotation matrix, eqs 6–7 of ``000_…``.
+    """MRP with ``|σ| ≤ 1`` of a rotation matrix, eqs 6–7 of Maestrini et al.
 
     In lcnav's convention (``R(σ) = C``) eq. 6 reads
     ``[σ×] = (C − Cᵀ) / (ζ (ζ + 2))`` with ``ζ = √(Tr C + 1)``. The converted
-    text of ``000_…`` prints ``ζ(ζ + 1)`` in the denominator; substituting the
+    text of Maestrini et al. prints ``ζ(ζ + 1)`` in the denominator; substituting the
     quaternion form of ``C`` (``Tr C + 1 = 4 q0²``, ``C − Cᵀ = 4 q0 [q_v×]``)
     shows that ``ζ(ζ + 2) = 4 q0 (1 + q0)`` is the one that gives
     ``σ = q_v/(1 + q0)`` (checked in ``tests/estimators/test_attitude.py``).
@@ -200,7 +200,7 @@ def dcm_to_mrp(C, *, eps: float = 1e-2) -> np.ndarray:
 
 
 def mrp_shadow(sigma) -> np.ndarray:
-    """Shadow MRP ``σ^S = −σ / |σ|²`` (eq. 31 of ``000_…``); same rotation."""
+    """Shadow MRP ``σ^S = −σ / |σ|²`` (eq. 31 of Maestrini et al.); same rotation."""
     s = _as_float(sigma)
     s2 = np.sum(s * s, axis=-1, keepdims=True)
     if np.any(s2 == 0.0):
@@ -209,7 +209,7 @@ def mrp_shadow(sigma) -> np.ndarray:
 
 
 def mrp_shadow_jacobian(sigma) -> np.ndarray:
-    """Jacobian ``T = ∂σ^S/∂σ = 2 σσᵀ/|σ|⁴ − I/|σ|²`` (eq. 32 of ``000_…``).
+    """Jacobian ``T = ∂σ^S/∂σ = 2 σσᵀ/|σ|⁴ − I/|σ|²`` (eq. 32 of Maestrini et al.).
 
     The converted paper prints ``2/|σ|⁴ − 4σσᵀ − I/|σ|²``; differentiating
     eq. 31 gives the form here, which a finite-difference test checks.
@@ -221,7 +221,7 @@ def mrp_shadow_jacobian(sigma) -> np.ndarray:
 
 
 def mrp_shadow_covariance(sigma, P, n_mrp: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Switch ``σ`` to its shadow set and transform ``P`` (eqs 31–32 of ``000_…``).
+    """Switch ``σ`` to its shadow set and transform ``P`` (eqs 31–32 of Maestrini et al.).
 
     ``P`` is the full state covariance; the MRP occupies rows/columns
     ``n_mrp : n_mrp + 3``, every other block is carried by the identity.
@@ -236,7 +236,7 @@ def mrp_shadow_covariance(sigma, P, n_mrp: int = 0) -> tuple[np.ndarray, np.ndar
 
 
 def kinematics_matrix(q) -> np.ndarray:
-    """``Q(q)`` of eq. 3 of ``002_…``, shape ``(..., 4, 3)``: ``Q(q) ω = q ⊗ [0, ω]``."""
+    """``Q(q)`` of eq. 3 of Renis et al., shape ``(..., 4, 3)``: ``Q(q) ω = q ⊗ [0, ω]``."""
     q = _as_float(q)
     q0, q1, q2, q3 = (q[..., i] for i in range(4))
     return np.stack(
@@ -251,12 +251,12 @@ def kinematics_matrix(q) -> np.ndarray:
 
 
 def quat_derivative(q, w_B) -> np.ndarray:
-    """``q̇_AB = ½ Q(q_AB) ω_B`` (eq. 2 of ``002_…`` in DESIGN.md's convention)."""
+    """``q̇_AB = ½ Q(q_AB) ω_B`` (eq. 2 of Renis et al. in DESIGN.md's convention)."""
     return 0.5 * np.einsum("...ij,...j->...i", kinematics_matrix(q), _as_float(w_B))
 
 
 def mrp_derivative(sigma, w_B) -> np.ndarray:
-    """``σ̇ = ¼ [(1 − σ²) I + 2[σ×] + 2σσᵀ] ω_B`` (eq. 28 of ``000_…``)."""
+    """``σ̇ = ¼ [(1 − σ²) I + 2[σ×] + 2σσᵀ] ω_B`` (eq. 28 of Maestrini et al.)."""
     s = _as_float(sigma)
     w = _as_float(w_B)
     s2 = np.sum(s * s, axis=-1, keepdims=True)
@@ -264,7 +264,7 @@ def mrp_derivative(sigma, w_B) -> np.ndarray:
 
 
 def rotvec_to_quat(rotvec) -> np.ndarray:
-    """Quaternion ``[cos(α/2), r sin(α/2)]`` of a rotation vector ``α r`` (eq. 34 of ``002_…``)."""
+    """Quaternion ``[cos(α/2), r sin(α/2)]`` of a rotation vector ``α r`` (eq. 34 of Renis et al.)."""
     v = _as_float(rotvec)
     angle = np.linalg.norm(v, axis=-1, keepdims=True)
     half = 0.5 * angle
@@ -296,7 +296,7 @@ def attitude_angle(q_a, q_b) -> np.ndarray:
 def dcm_angle(C_a, C_b) -> np.ndarray:
     """Principal angle between two rotation matrices, ``arccos((Tr(C_b C_aᵀ) − 1)/2)``.
 
-    This is eq. 33 of ``000_…`` as it should read (the converted text has the
+    This is eq. 33 of Maestrini et al. as it should read (the converted text has the
     ½ in the wrong place). Clipped to ``[-1, 1]`` against round-off.
     """
     M = _as_float(C_b) @ np.swapaxes(_as_float(C_a), -1, -2)

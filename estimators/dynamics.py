@@ -5,15 +5,15 @@ Everything is SI (m, s, rad). Vectors are named with their frame
 
 Models
 ------
-* torque-free rigid body, Euler's equations (eq. 29 of ``000_…``), with the
+* torque-free rigid body, Euler's equations (eq. 29 of Maestrini et al.), with the
   inertia parametrised by ``k1 = ln(A/B)``, ``k2 = ln(B/C)``,
-  ``J = diag(e^k1, 1, e^-k2)`` (eq. 18 of ``002_…``);
+  ``J = diag(e^k1, 1, e^-k2)`` (eq. 18 of Renis et al.);
 * Keplerian two-body motion;
-* the 15-state relative model of ``002_…`` (eqs 1–21) in the target frame,
+* the 15-state relative model of Renis et al. (eqs 1–21) in the target frame,
   driven by the servicer's own absolute state (:func:`relative_rhs`);
-* the nonlinear equations of relative motion in LVLH (eq. 9 of ``000_…``) and
+* the nonlinear equations of relative motion in LVLH (eq. 9 of Maestrini et al.) and
   the Clohessy–Wiltshire closed form;
-* the axisymmetric precession model of ``000_…`` §V.A (eqs 35–40);
+* the axisymmetric precession model of Maestrini et al. §V.A (eqs 35–40);
 * a fixed-step RK4 (the papers' ``ode4``) and a tight ``solve_ivp`` (DOP853)
   for truth.
 
@@ -39,7 +39,7 @@ MU_EARTH = 3.986004418e14
 R_EARTH = 6378137.0
 """Earth's equatorial radius, m (WGS-84)."""
 
-#: Layout of the 15-state relative vector (eq. 17 of ``002_…``).
+#: Layout of the 15-state relative vector (eq. 17 of Renis et al.).
 STATE_SLICES = {
     "q_TS": slice(0, 4),
     "w_ST_T": slice(4, 7),
@@ -55,12 +55,12 @@ ABS_SLICES = {"r_I": slice(0, 3), "v_I": slice(3, 6), "q_IB": slice(6, 10), "w_B
 
 
 def inertia_from_k(k1, k2) -> np.ndarray:
-    """Normalised principal inertia ``[e^k1, 1, e^-k2]`` (eq. 18 of ``002_…``)."""
+    """Normalised principal inertia ``[e^k1, 1, e^-k2]`` (eq. 18 of Renis et al.)."""
     return np.array([np.exp(k1), 1.0, np.exp(-k2)], dtype=float)
 
 
 def k_from_inertia(J_diag) -> tuple[float, float]:
-    """``k1 = ln(A/B)``, ``k2 = ln(B/C)`` (eq. 19 of ``002_…``) of principal moments ``A, B, C``."""
+    """``k1 = ln(A/B)``, ``k2 = ln(B/C)`` (eq. 19 of Renis et al.) of principal moments ``A, B, C``."""
     A, B, C = (float(v) for v in J_diag)
     if min(A, B, C) <= 0:
         raise ValueError(f"principal moments must be positive, got {J_diag!r}")
@@ -68,7 +68,7 @@ def k_from_inertia(J_diag) -> tuple[float, float]:
 
 
 def euler_rhs(w_B, J_diag) -> np.ndarray:
-    """Torque-free Euler equations ``J ω̇ + ω × J ω = 0`` (eq. 29 of ``000_…``)."""
+    """Torque-free Euler equations ``J ω̇ + ω × J ω = 0`` (eq. 29 of Maestrini et al.)."""
     w = np.asarray(w_B, dtype=float)
     J = np.asarray(J_diag, dtype=float)
     return -np.cross(w, J * w) / J
@@ -178,7 +178,7 @@ def lvlh_dcm(r_I, v_I) -> np.ndarray:
     return np.stack([x, y, z], axis=-2)
 
 
-# ---------------------------------------------------------------- relative motion (002_… eqs 1–21)
+# ---------------------------------------------------------------- relative motion (Renis et al. eqs 1–21)
 
 
 def relative_state(target: np.ndarray, servicer: np.ndarray, k) -> np.ndarray:
@@ -254,7 +254,7 @@ def absolute_rhs_nb(s, J, mu):
     rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
     out[0:3] = s[3:6]
     out[3:6] = -mu * r / rn**3
-    # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of 002_…)
+    # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of Renis et al.)
     out[6] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
     out[7] = 0.5 * (q[0] * w[0] - q[3] * w[1] + q[2] * w[2])
     out[8] = 0.5 * (q[3] * w[0] + q[0] * w[1] - q[1] * w[2])
@@ -315,13 +315,13 @@ def joint_rhs(z, J_S, mu):
 
 
 def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
-    """Time derivative of the 15-state relative vector (eq. 21 of ``002_…``).
+    """Time derivative of the 15-state relative vector (eq. 21 of Renis et al.).
 
     ``x = [q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]``; ``servicer = [r_S_I, v_S_I,
     q_IS, ω_S_S]`` is the servicer's absolute state, from its own attitude and
     orbit determination; ``J_S_diag`` its principal inertia.
 
-    Derivation (done here because eqs 11 and 15 of the converted ``002_…``
+    Derivation (done here because eqs 11 and 15 of the converted Renis et al.
     have sign and frame slips; the exactness test in
     ``tests/estimators/test_dynamics.py`` checks it against two independent
     absolute integrations):
@@ -408,11 +408,11 @@ def propagate_relative_batch(X, servicer0, J_S_diag, dt: float, n_steps: int = 1
     return _rk4_batch(X, np.asarray(servicer0, dtype=float), np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps))
 
 
-# ---------------------------------------------------------------- LVLH relative motion (000_… eq. 9)
+# ---------------------------------------------------------------- LVLH relative motion (Maestrini et al. eq. 9)
 
 
 def nerm_rhs(t: float, x, n: float, R_t: float, mu: float = MU_EARTH) -> np.ndarray:
-    """Nonlinear equations of relative motion in LVLH (eq. 9 of ``000_…``).
+    """Nonlinear equations of relative motion in LVLH (eq. 9 of Maestrini et al.).
 
     ``x = [x, y, z, ẋ, ẏ, ż]`` (m, m/s) of the target relative to the chaser on
     a circular orbit of radius ``R_t`` and mean motion ``n``; accepts ``(..., 6)``.
@@ -447,7 +447,7 @@ def cw_propagate(x0, n: float, t) -> np.ndarray:
     return np.einsum("...ij,j->...i", cw_stm(n, t), np.asarray(x0, dtype=float))
 
 
-# ---------------------------------------------------------------- axisymmetric precession (000_… §V.A)
+# ---------------------------------------------------------------- axisymmetric precession (Maestrini et al. §V.A)
 
 
 def axisymmetric_rhs(t: float, x) -> np.ndarray:

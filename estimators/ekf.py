@@ -1,4 +1,4 @@
-"""Extended Kalman filter of ``002_…`` §4.1 (eqs 25–28), on the 14-dimensional error state.
+"""Extended Kalman filter of Renis et al. §4.1 (eqs 25–28), on the 14-dimensional error state.
 
 Prediction (eq. 26): ``x̂⁻ = f(x̂)``, ``P⁻ = F P Fᵀ + Q_d`` with the analytic
 ``F`` of :mod:`estimators.process_model`. Update (eq. 27):
@@ -38,6 +38,11 @@ filterpy's ``ExtendedKalmanFilter`` is not used: it keeps ``x`` and ``P`` of
 the same size, predicts with ``x = F x`` and updates with ``x += K y``, none of
 which holds for a 15-number state with a 14×14 covariance and a
 multiplicative attitude update. The update uses the Joseph form, as filterpy does.
+
+References
+----------
+.. [1] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
 """
 
 from __future__ import annotations
@@ -79,7 +84,33 @@ def _joseph_update(P, H, R, y, consider):
 
 
 class ExtendedKalmanFilter(KalmanFilterBase):
-    """EKF with the interface of :class:`~estimators.filter.KalmanFilterBase`."""
+    """EKF with the interface of :class:`~estimators.filter.KalmanFilterBase`: ``predict(u, dt)`` and ``update(parts)``.
+
+    Examples
+    --------
+    The textbook case: a random walk ``x_{k+1} = x_k + w`` (``Q = 1``) seen
+    directly with noise of variance ``R = 1``. The posterior variance settles
+    at the root of the steady-state Riccati equation, ``(√5 − 1)/2``, and the
+    last innovation's covariance at ``P⁻ + R = (√5 + 3)/2``:
+
+    >>> import numpy as np
+    >>> from estimators.measurement import LinearMeasurement
+    >>> from estimators.process_model import LinearProcessModel
+    >>> walk = LinearProcessModel(lambda dt: np.eye(1))
+    >>> f = ExtendedKalmanFilter(walk, x0=[0.0], P0=[10.0], Q=[1.0], gate_confidence=None)
+    >>> camera = LinearMeasurement(H=[[1.0]], R=[[1.0]], name="camera")
+    >>> for z in [0.3, -0.2, 0.5, 0.1, 0.4, 0.2, 0.3, 0.0, 0.1, 0.2]:
+    ...     f.predict(None, dt=1.0)
+    ...     decisions = f.update([(camera, [z])])
+    >>> round(float(f.P[0, 0]), 4), round(float(np.sqrt(5) - 1) / 2, 4)
+    (0.618, 0.618)
+    >>> round(float(f.S[0, 0]), 4), round(float(np.sqrt(5) + 3) / 2, 4)
+    (2.618, 2.618)
+
+    On the relative-navigation model (:class:`~estimators.process_model.RelativeProcessModel`)
+    the same two verbs run the 15-state filter; :func:`estimators.navigation.run_navigation`
+    drives them over a measurement sequence.
+    """
 
     kind = "ekf"
     #: add the covariance of the linearisation error to ``P⁻`` (see the module docstring)

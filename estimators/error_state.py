@@ -1,6 +1,6 @@
 """The 14-dimensional error state shared by the EKF and the UKF.
 
-The state of eq. 17 of ``002_…`` has 15 numbers,
+The state of eq. 17 of Renis et al. has 15 numbers,
 ``x = [q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]``, but only 14 degrees of
 freedom: the quaternion has unit norm. Both filters therefore keep their
 covariance ``P`` over the *error state* (14)
@@ -8,7 +8,7 @@ covariance ``P`` over the *error state* (14)
 ``δx = [δp, δω_ST_T, δr_ST_T, δv_ST_T, δk1, δk2]``
 
 where the attitude error is ``δq = q_TS ⊗ q̂_TS⁻¹`` (expressed in T, the form
-of eq. 29 of ``002_…``) written as the generalised Rodrigues parameters of
+of eq. 29 of Renis et al.) written as the generalised Rodrigues parameters of
 Crassidis & Markley (2003, eq. 33) with ``a = 1, f = 2(a + 1) = 4``, i.e.
 four times the MRP: ``δp = 4 δq_v / (1 + δq0)``. For small errors ``δp`` equals
 the rotation vector to third order, so the attitude block of ``P`` is in rad²
@@ -93,7 +93,7 @@ def _attitude_error_rows(q, q_ref):
 
 @numba.njit(cache=True)
 def _apply_attitude_error_rows(dp, q_ref):
-    """``q = δq(δp) ⊗ q_ref / |…|`` per row (eq. 28 of ``002_…``): ``dp`` (N, 3), ``q_ref`` (N, 4) or (1, 4).
+    """``q = δq(δp) ⊗ q_ref / |…|`` per row (eq. 28 of Renis et al.): ``dp`` (N, 3), ``q_ref`` (N, 4) or (1, 4).
 
     ``δq`` is the unit quaternion of the MRP ``σ = δp / f``:
     ``δq0 = (1 − σ²)/(1 + σ²)``, ``δq_v = 2σ/(1 + σ²)``.
@@ -122,7 +122,7 @@ def attitude_error(q, q_ref) -> np.ndarray:
 
 
 def apply_attitude_error(dp, q_ref) -> np.ndarray:
-    """``q = δq(δp) ⊗ q_ref``, normalised (eq. 28 of ``002_…``)."""
+    """``q = δq(δp) ⊗ q_ref``, normalised (eq. 28 of Renis et al.)."""
     lead, dp, q_ref = _paired_rows(np.asarray(dp, dtype=float), np.asarray(q_ref, dtype=float))
     return _apply_attitude_error_rows(dp, q_ref).reshape(lead + (4,))
 

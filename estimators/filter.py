@@ -1,6 +1,6 @@
 """What the EKF and the UKF share: the interface, gating per source, and the refusal of NaN/Inf.
 
-Notation follows filterpy and eqs 25–31 of ``002_…``: ``x`` (the full state,
+Notation follows filterpy and eqs 25–31 of Renis et al.: ``x`` (the full state,
 15 numbers for the relative-navigation model), ``P`` (covariance of the error
 state, 14×14), ``Q`` (``Q_d``), ``y`` and ``S`` (the last innovation and its
 covariance). Two verbs:
@@ -78,7 +78,7 @@ class KalmanFilterBase:
         their gain rows are zero, so their estimate stays put while their
         uncertainty still enters ``P`` and ``S``. Used for ``k1, k2`` in one-axis
         tumbles, where the inertia ratios do not affect the motion and are not
-        estimated (§6.1 of ``002_…``); an EKF that estimates them there learns
+        estimated (§6.1 of Renis et al.); an EKF that estimates them there learns
         them from its own linearisation errors and becomes overconfident.
     """
 

@@ -1,13 +1,13 @@
-"""Validation gates on the innovation (``002_…`` §4.3; ``000_…`` eqs 18–20).
+"""Validation gates on the innovation (Renis et al. §4.3; Maestrini et al. eqs 18–20).
 
-The normalised innovation squared ``e² = vᵀ S⁻¹ v`` (eq. 31 of ``002_…``; the
-squared Mahalanobis distance of eq. 18 of ``000_…``) of a correct measurement
+The normalised innovation squared ``e² = vᵀ S⁻¹ v`` (eq. 31 of Renis et al.; the
+squared Mahalanobis distance of eq. 18 of Maestrini et al.) of a correct measurement
 is chi-square distributed with ``m = len(v)`` degrees of freedom. A gate
 accepts it inside the chi-square bounds at confidence ``α``:
 
-* one-sided (``000_…``, and the filters' gate): ``e² ≤ χ²_m(confidence)``
+* one-sided (Maestrini et al., and the filters' gate): ``e² ≤ χ²_m(confidence)``
   (99 %, ν = 3);
-* two-sided (§4.3 of ``002_…``): ``χ²_m(α/2) < e² < χ²_m(1 − α/2)`` — the
+* two-sided (§4.3 of Renis et al.): ``χ²_m(α/2) < e² < χ²_m(1 − α/2)`` — the
   paper names the *rejection* probability α; here ``confidence`` is the
   probability of accepting a correct measurement, so the bounds are the
   ``(1 − confidence)/2`` and ``(1 + confidence)/2`` quantiles.

@@ -1,7 +1,7 @@
-"""Measurement models: the pose measurement of eq. 24 of ``002_…`` and the spin-prior proxy.
+"""Measurement models: the pose measurement of eq. 24 of Renis et al. and the spin-prior proxy.
 
 A measurement *source* is one independently gated part of the measurement
-vector (§4.3 of ``002_…``): the attitude ``q_TS``, the position ``r_ST_T``, or
+vector (§4.3 of Renis et al.): the attitude ``q_TS``, the position ``r_ST_T``, or
 the fictitious rate measurement of a spin prior (§6.3). Each source knows,
 in the coordinates of the filters' error state (:mod:`estimators.error_state`),
 
@@ -54,7 +54,7 @@ def _finite(z, shape, name: str) -> np.ndarray:
     return z
 
 
-#: Noise distributions of the pose estimator (``002_…`` §4.4). ``"gaussian"``: the rotation vector and the
+#: Noise distributions of the pose estimator (Renis et al. §4.4). ``"gaussian"``: the rotation vector and the
 #: position error are ``N(0, σ²/3 I)``. ``"isotropic"``: eq. 34 read literally, a Gaussian *amplitude*
 #: ``N(0, σ²)`` along a uniform direction — the same covariance, but ``|noise|² = σ² χ²₁`` rather than
 #: ``σ²/3 χ²₃``, so the filters' NIS is not chi-square and a 99 % gate rejects ~4 % of good measurements.
@@ -63,7 +63,7 @@ NOISE_MODELS = ("gaussian", "isotropic")
 
 @dataclass(frozen=True)
 class PoseNoise:
-    """The pose estimator's noise: amplitudes ``σ_q`` (rad), ``σ_r`` (m) and distribution (``002_…`` §4.4, eqs 33–34).
+    """The pose estimator's noise: amplitudes ``σ_q`` (rad), ``σ_r`` (m) and distribution (Renis et al. §4.4, eqs 33–34).
 
     An isotropic error of amplitude σ has per-axis variance ``σ²/3``, so
     ``R_d = blockdiag(σ_q²/3 I₃, σ_r²/3 I₃)`` (the paper's 0.12 rad and 0.37 m
@@ -160,7 +160,7 @@ class PositionMeasurement:
 
 @dataclass(frozen=True)
 class TargetRateMeasurement:
-    """A spin prior pushed as a fictitious measurement of the target's rate (§6.3 of ``002_…``).
+    """A spin prior pushed as a fictitious measurement of the target's rate (§6.3 of Renis et al.).
 
     The prior is the target's own spin ``ω_T_T`` (what a light curve gives),
     not the state's relative rate, so ``h(x) = R(q_TS) ω_S_S − ω_ST_T`` (eq. 1

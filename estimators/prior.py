@@ -1,4 +1,4 @@
-"""Spin priors in the filter (``002_…`` §5.3, §6): tuning, initialisation, proxy measurement.
+"""Spin priors in the filter (Renis et al. §5.3, §6): tuning, initialisation, proxy measurement.
 
 A :class:`SpinPrior` is the target's rate in its own principal-axes frame,
 ``ω_T_T`` (rad/s), with a 1-σ per axis — what light-curve analysis gives
@@ -94,7 +94,7 @@ def prior_from_rate(rate_rad_s, sigma_rad_s, axis_T=(0.0, 0.0, 1.0), source: str
 
 
 def tuning_for_prior(prior: SpinPrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0) -> str:
-    """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of ``002_…``).
+    """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of Renis et al.).
 
     Fast if ``|ω| ≥ fast_rad_s`` (Table 1: slow 0.05, fast 0.2/0.18 rad/s);
     one-axis if ``ω`` is within ``single_axis_deg`` of a principal axis.

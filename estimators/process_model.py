@@ -1,4 +1,4 @@
-"""The filters' process model: eq. 21 of ``002_…`` over one sampling time, with its Jacobian.
+"""The filters' process model: eq. 21 of Renis et al. over one sampling time, with its Jacobian.
 
 ``f`` is the RK4 (``ode4``) of the relative dynamics over ``τ_s`` with the
 servicer's absolute state from its AODS (``s = [r_S_I, v_S_I, q_IS, ω_S_S]``

@@ -1,10 +1,10 @@
 """Re-opening a gate that has locked a filter out: track re-acquisition from consistent rejections.
 
-A chi-square gate (§4.3 of ``002_…``) cannot tell an outlier from a filter
+A chi-square gate (§4.3 of Renis et al.) cannot tell an outlier from a filter
 that has lost the target: after a long camera blackout the prediction has
 drifted further than ``P`` admits, every good measurement is rejected, and
 nothing ever corrects ``x̂`` again (measured: the UKF's position after the
-120 s blackout of §6.3, 23–170 m off 60 s after the fault). ``002_…`` has no
+120 s blackout of §6.3, 23–170 m off 60 s after the fault). Renis et al. has no
 rule for this; lcnav adds the one radar trackers use to re-initiate a track
 (Bar-Shalom, Li & Kirubarajan, *Estimation with Applications to Tracking and
 Navigation*, 2001, §3.7: least-squares initiation from the last few

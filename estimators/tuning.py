@@ -1,7 +1,7 @@
-"""Named filter tunings: ``Q_d``, ``R_d`` and ``P_0`` (``002_…`` §4.1, §6.1).
+"""Named filter tunings: ``Q_d``, ``R_d`` and ``P_0`` (Renis et al. §4.1, §6.1).
 
 A tuning is chosen by name (``--tuning NAME``), or from a spin prior by
-:func:`estimators.prior.tuning_for_prior` (study 1 of ``002_…``: with a
+:func:`estimators.prior.tuning_for_prior` (study 1 of Renis et al.: with a
 prior, the scenario-specific ``Q_d``). ``Q_d`` is stored as a rate per second
 of sampling time, ``Q_d = diag(q_rate) τ_s``, so one tuning serves every
 ``τ_s``; all blocks are over the 14 error states

@@ -12,6 +12,11 @@ Modules: :mod:`~lightcurves.targets` (shapes, materials, mass properties),
 :mod:`~lightcurves.photometry`, :mod:`~lightcurves.simulate`,
 :mod:`~lightcurves.io`, :mod:`~lightcurves.clean`, :mod:`~lightcurves.prior`.
 Importing this package does not import Mitsuba (only ``scene``/``render`` do).
+
+References
+----------
+.. [1] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
 """
 
 from lightcurves.clean import WindowCleanResult, window_clean

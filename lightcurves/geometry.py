@@ -234,7 +234,7 @@ def _attitude_rhs(t, x, J_diag):
 def spin_attitude(q_IT0, w_T0, J_diag, t_s) -> tuple[np.ndarray, np.ndarray]:
     """Torque-free attitude ``q_IT`` (N, 4) and body rate ``ω_T`` (N, 3) at ``t_s`` from ``(q_IT0, ω_T0)``.
 
-    Euler's equations with ``J_diag`` (eq. 29 of ``000_…``) and ``q̇ = ½ q ⊗ [0, ω]``,
+    Euler's equations with ``J_diag`` (eq. 29 of Maestrini et al.) and ``q̇ = ½ q ⊗ [0, ω]``,
     integrated by DOP853 at 1e-12 (:func:`estimators.dynamics.integrate_truth`).
     """
     t = np.asarray(t_s, dtype=float)

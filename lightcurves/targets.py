@@ -29,7 +29,7 @@ so a model built along y keeps its long axis as T's y axis; when the build
 frame is already principal (all symmetric models here) T is B shifted to the
 centre of mass. ``J_diag`` is therefore ordered as T's axes, not sorted: the
 rocket body, built along y, gives ``J ≈ diag(A, B, A)`` with ``B`` the small
-moment, as the ``diag(4.33, 1, 4)`` of ``002_…`` §6.
+moment, as the ``diag(4.33, 1, 4)`` of Renis et al. §6.
 
 Mass properties come from the closed surface formed by the union of all parts
 (the parts partition the surface) by signed-tetrahedron volume integrals
@@ -135,7 +135,7 @@ class Target:
 
     @property
     def k(self) -> tuple[float, float]:
-        """``(k1, k2)`` of eq. 19 of ``002_…``."""
+        """``(k1, k2)`` of eq. 19 of Renis et al."""
         return self.mass.k1, self.mass.k2
 
     @property
@@ -340,7 +340,7 @@ def atlas_centaur(length_m: float = 12.0, diameter_m: float = 3.05, nozzle_lengt
     A cylinder of ``diameter_m`` ending in a bright aluminium forward bulkhead
     (+y) and a dark conical aft end (nozzle side, -y) that narrows to 40 % of
     the radius: the two ends reflect differently, so a tumble about a transverse
-    axis shows two unequal maxima per turn (``002_…`` §5.1, Fig. 2).
+    axis shows two unequal maxima per turn (Renis et al. §5.1, Fig. 2).
     ``density_kg_m3`` is a smeared density (≈2 t dry mass).
     """
     if not (length_m > nozzle_length_m > 0 and diameter_m > 0):

@@ -1,10 +1,10 @@
-"""Rigid Bayesian Coherent Point Drift (Hirose 2021), the registration of §IV.A of ``000_…``.
+"""Rigid Bayesian Coherent Point Drift (Hirose 2021), the registration of §IV.A of Maestrini et al.
 
 BCPD (O. Hirose, *A Bayesian formulation of coherent point drift*, IEEE TPAMI
 43(7), 2021) explains every measured point ``x_n`` as drawn either from an
 outlier density ``p_out = 1/V`` (weight ``w``) or from an isotropic Gaussian
 of variance ``σ²`` centred on a transformed model point
-``ŷ_m = s R (y_m + v_m) + t`` (eq. 2 of ``000_…``). The displacements ``v_m``
+``ŷ_m = s R (y_m + v_m) + t`` (eq. 2 of Maestrini et al.). The displacements ``v_m``
 have a Gaussian-process prior whose variance scales as ``1/λ``; CoMBiNa takes
 ``λ`` large so that only the similarity ``(s, R, t)`` is left. Here that limit
 is taken in closed form: with ``λ → ∞`` the posterior of ``v`` collapses
@@ -41,7 +41,7 @@ Two ways of evaluating the E-step (``method=``):
     ``benchmarks/bench_perception.py`` (~100× faster, rotations within ~0.1–0.3°
     of the reference's).
 
-The result follows eq. 4 of ``000_…``: ``model ≈ s R measured + t`` — the
+The result follows eq. 4 of Maestrini et al.: ``model ≈ s R measured + t`` — the
 transformation that carries the measured cloud onto the model. BCPD itself
 moves the model onto the measurement (the measurement carries the outliers);
 the result is its inverse.
@@ -66,7 +66,7 @@ REQUERY_SIGMA_FRACTION = 0.5
 
 @dataclass(frozen=True)
 class BCPDResult:
-    """Outcome of :func:`bcpd_rigid`, in the convention of eq. 4 of ``000_…``.
+    """Outcome of :func:`bcpd_rigid`, in the convention of eq. 4 of Maestrini et al.
 
     Attributes
     ----------
@@ -265,16 +265,16 @@ def bcpd_rigid(
     rng : draws the subsets of ``"kdtree"``; a fixed default seed keeps the
         registration deterministic when it is not given.
     estimate_scale : estimate ``s`` (BCPD's similarity, what the scale gate of
-        ``000_…`` needs) or hold ``s = 1`` (a rigid transform; on a cloud that
+        Maestrini et al. needs) or hold ``s = 1`` (a rigid transform; on a cloud that
         covers one side of the target the scale estimate is biased, see
         ``benchmarks/RESULTS.md``).
 
     The initial transform is the identity: the caller brings the clouds close
-    (eq. 3 of ``000_…`` does that with the filter's estimate).
+    (eq. 3 of Maestrini et al. does that with the filter's estimate).
 
     Returns
     -------
-    BCPDResult with ``model ≈ s R measured + t`` (eq. 4 of ``000_…``).
+    BCPDResult with ``model ≈ s R measured + t`` (eq. 4 of Maestrini et al.).
 
     Examples
     --------

@@ -1,4 +1,4 @@
-"""Pose measurements from a stereo point cloud and the coarse model, eqs 3–8 of ``000_…``.
+"""Pose measurements from a stereo point cloud and the coarse model, eqs 3–8 of Maestrini et al.
 
 Frames and DCMs follow the paper's notation, ``C_AB`` maps B-components to
 A-components (``v_A = C_AB v_B``; in lcnav terms ``C_AB = R(q_AB)``):
@@ -62,7 +62,7 @@ class PoseMeasurement:
 
 
 def mrp_of_C_TI(C_TI) -> np.ndarray:
-    """MRP ``σ_T`` (``|σ| ≤ 1``) of the passive DCM ``C_TI``, eqs 6–7 of ``000_…``.
+    """MRP ``σ_T`` (``|σ| ≤ 1``) of the passive DCM ``C_TI``, eqs 6–7 of Maestrini et al.
 
     ``[σ̃] = (C_TIᵀ − C_TI) / (ζ (ζ + 2))``, ``ζ = √(Tr C_TI + 1)`` and, at 180°,
     ``σ σᵀ = ½ (I + C_TI)`` — both are :func:`estimators.attitude.dcm_to_mrp`
@@ -104,7 +104,7 @@ def measure_pose(
     gamma: float = 0.1,
     **bcpd_kwargs,
 ) -> PoseMeasurement:
-    """Pose measurement of eqs 3–8 of ``000_…`` from one stereo cloud.
+    """Pose measurement of eqs 3–8 of Maestrini et al. from one stereo cloud.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Coarse target model of CoMBiNa's preliminary phase, §III.B of ``000_…``.
+"""Coarse target model of CoMBiNa's preliminary phase, §III.B of Maestrini et al.
 
 The chaser flies one inspection orbit (the inclined football orbit of eq. 46)
 and accumulates stereo clouds. A SLAM system would estimate the camera poses;

@@ -1,12 +1,12 @@
-"""Mitsuba stereo frames of a target: two parallel pinhole cameras (Table 1 of ``000_…``).
+"""Mitsuba stereo frames of a target: two parallel pinhole cameras (Table 1 of Maestrini et al.).
 
-The chaser camera frame C is the frame of eq. 1 of ``000_…``:
+The chaser camera frame C is the frame of eq. 1 of Maestrini et al.:
 ``p^C = [−(b/α)(v − v0), (b/α)(u − u0), −f d b/α]``. With ``u`` the image
 column (to the right) and ``v`` counted *upwards* this frame is right-handed:
 ``x_C`` points down the image, ``y_C`` to the right, ``z_C`` against the
 boresight (the cameras look along ``−z_C``). The left camera is at the origin
 of C, the right one at ``+b y_C``, both looking along ``−z_C`` (parallel axes,
-Fig. 4 of ``000_…``). C is the servicer body frame S (DESIGN.md).
+Fig. 4 of Maestrini et al.). C is the servicer body frame S (DESIGN.md).
 
 The target pose is given as ``v_C = C_CT v_T + r_TC_C``. Rendering uses the
 target frame as Mitsuba's world (W = T, as the light-curve renderer does): the
@@ -53,7 +53,7 @@ _NEAR_CLIP_M = 0.01
 
 @dataclass(frozen=True)
 class StereoCamera:
-    """Parallel-axis stereo camera of Table 1 of ``000_…``.
+    """Parallel-axis stereo camera of Table 1 of Maestrini et al.
 
     ``resolution_px`` is the rendered square size; the focal length in pixels
     scales with it so the field of view is always that of the full
@@ -119,7 +119,7 @@ class StereoFrame:
 
 
 def pose_from_relative_state(x) -> tuple[np.ndarray, np.ndarray]:
-    """``(C_CT, r_TC_C)`` from a relative state ``[q_TS, ω_ST_T, r_ST_T, …]`` (``002_…``), with C = S.
+    """``(C_CT, r_TC_C)`` from a relative state ``[q_TS, ω_ST_T, r_ST_T, …]`` (Renis et al.), with C = S.
 
     ``C_CT = R(q_TS)ᵀ``; ``r_ST_T`` is the servicer relative to the target in T,
     so the target relative to the camera is ``r_TC_C = −C_CT r_ST_T``.

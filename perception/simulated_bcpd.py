@@ -1,4 +1,4 @@
-"""A fast stand-in for the stereo + BCPD pose measurement (``000_…`` §IV.A, §V.B).
+"""A fast stand-in for the stereo + BCPD pose measurement (Maestrini et al. §IV.A, §V.B).
 
 The real chain renders a stereo pair, triangulates a point cloud and registers
 the on-board coarse model to it with BCPD, which returns a similarity

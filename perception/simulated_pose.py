@@ -1,4 +1,4 @@
-"""Simulated pose-estimator measurements (``002_…`` §4.4, eqs 33–34).
+"""Simulated pose-estimator measurements (Renis et al. §4.4, eqs 33–34).
 
 A CNN pose estimator seen from the filter: at a fixed rate ``1/τ_s`` it returns
 the relative attitude ``q_TS`` and position ``r_ST_T`` (eq. 24) with

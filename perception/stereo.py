@@ -1,6 +1,6 @@
-"""Point clouds from a stereo pair: ROI, features, matching along rows, eq. 1 of ``000_…``.
+"""Point clouds from a stereo pair: ROI, features, matching along rows, eq. 1 of Maestrini et al.
 
-§III.A of ``000_…``: the region of interest is the set of pixels above a
+§III.A of Maestrini et al.: the region of interest is the set of pixels above a
 brightness threshold (black background); features are detected in it and
 should cover the whole target rather than be few and strong. The paper picked
 SURF, which is not in OpenCV's free build; AKAZE is not in the OpenCV 5.0
@@ -137,7 +137,7 @@ def _match_along_row(gl, gr, x: int, y: int, max_disp: int, half: int, min_ncc: 
 
 
 def triangulate(camera: StereoCamera, u, r, disparity) -> np.ndarray:
-    """Eq. 1 of ``000_…``: points ``(M, 3)`` in C from left-image ``u``, row ``r`` and disparity (px)."""
+    """Eq. 1 of Maestrini et al.: points ``(M, 3)`` in C from left-image ``u``, row ``r`` and disparity (px)."""
     u, r, a = (np.asarray(v, dtype=float) for v in (u, r, disparity))
     k = camera.baseline_m / a
     return np.stack([k * (r - camera.center_px), k * (u - camera.center_px), -camera.f_px * k], axis=-1)

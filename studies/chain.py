@@ -1,6 +1,6 @@
 """Light curve → WindowCLEAN spin prior → filters: the pieces ``lcnav demo`` and the ``chain`` study share.
 
-The chain of ``002_…`` §5–6 end to end:
+The chain of Renis et al. §5–6 end to end:
 
 1. :func:`render_prior` renders a light curve of a rocket body tumbling like
    a scenario's target (its initial rate ``ω_T0`` about the same body axis,
@@ -160,7 +160,7 @@ def flat_metrics(truth: Truth, run, prefix: str, *, rmse_from_s: float | None = 
     """``{prefix}_{group}_conv_s`` / ``_rmse`` (state based) and ``_filter_conv_s`` / ``_filter_rmse`` (filter based).
 
     With ``rmse_from_s``, also ``{prefix}_{group}_rmse_after``: the RMSE of the
-    state error from that time on (the post-fault window of 002 Table 6).
+    state error from that time on (the post-fault window of Renis et al. Table 6).
     """
     m = evaluate(truth.t, run.x, run.P, truth.x)
     out = {}

@@ -1,6 +1,6 @@
-"""Study ``chain``: the prior studies of ``002_…`` §6 with the prior from a rendered light curve (issue 7, study 4).
+"""Study ``chain``: the prior studies of Renis et al. §6 with the prior from a rendered light curve (issue 7, study 4).
 
-Studies 1–3 of ``002_…`` assume a prior with a 5 % error. Here, per seed,
+Studies 1–3 of Renis et al. assume a prior with a 5 % error. Here, per seed,
 the prior is *measured*: a light curve of the rocket body tumbling like the
 scenario's target is rendered (Mitsuba, seeded photometric noise and
 sampling, :func:`studies.chain.render_prior`) and WindowCLEAN extracts the
@@ -51,7 +51,7 @@ from studies.sweep import RunSpec, make_specs
 from studies.tables import Table
 from studies.truth import simulate_truth
 
-TITLE = "End to end: light curve -> WindowCLEAN prior -> tuning choice, initialisation, proxy (002 §6 with a measured prior)"
+TITLE = "End to end: light curve -> WindowCLEAN prior -> tuning choice, initialisation, proxy (Renis et al. §6 with a measured prior)"
 EXPERIMENTS = ("init", "proxy")
 
 FIELDS: dict[str, Field] = {
@@ -70,7 +70,7 @@ FIELDS: dict[str, Field] = {
     "proxy_duration_s": Field("float", "Filter run of the proxy experiment, s.", gt=0, default=300.0),
     "dt_s": Field("float", "Sampling time of filter and pose measurements, s.", gt=0, default=1.0),
     "fault_start_s": Field("float", "Start of the proxy experiment's fault window, s.", ge=0, default=90.0),
-    "fault_duration_s": Field("float", "Length of the fault window, s (002 §6.3: 120).", gt=0, default=120.0),
+    "fault_duration_s": Field("float", "Length of the fault window, s (Renis et al. §6.3: 120).", gt=0, default=120.0),
     "settling_s": Field("float", "RMSE of the proxy experiment from fault end + this, s.", ge=0, default=30.0),
     "gate_confidence": Field("float", "Chi-square gate confidence per source.", gt=0, le=0.999, default=0.99),
     "gate_start_s": Field("float", "Gates test measurements from this time on, s.", ge=0, default=10.0),
@@ -232,7 +232,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         for m, u in zip(metrics, ("rad", "rad/s", "m", "m/s")):
             keep |= {f"{m}_mean": f"RMSE {m[0]} ({u})", f"{m}_ci_lo": f"{m[0]} {pct}% lo", f"{m}_ci_hi": f"{m[0]} {pct}% hi"}
         t0 = config["fault_start_s"] + config["fault_duration_s"] + config["settling_s"]
-        tables.append(Table("proxy_window", "Proxy experiment: RMSE after the fault (analogue of 002 Table 6)", d[list(keep)].rename(columns=keep),
+        tables.append(Table("proxy_window", "Proxy experiment: RMSE after the fault (analogue of Renis et al. Table 6)", d[list(keep)].rename(columns=keep),
                             f"{config['proxy_scenario']}, fault {config['fault_start_s']:g}–{config['fault_start_s'] + config['fault_duration_s']:g} s; "
                             f"RMSE of the state error from {t0:g} s to the end, mean with a t interval.", default_format=".3g"))
     plot_rate_errors(runs, experiments, out_dir / "rate_error.png")

@@ -7,7 +7,7 @@
 2. extracts the spin prior with WindowCLEAN (:func:`lightcurves.extract_spin_prior`)
    and maps it to an ω vector about an **assumed** axis (see
    :attr:`studies.chain.RenderedPrior.mapping`);
-3. runs the EKF and the UKF on SC3 (``002_…`` Table 1) without the prior
+3. runs the EKF and the UKF on SC3 (Renis et al. Table 1) without the prior
    (general tuning, ``ω̂_0 = 0``) and with it (the tuning it points to and
    the prior as initial condition, §6.2), on the same measurements, through
    the code path of ``lcnav run``;
@@ -53,7 +53,7 @@ class DemoConfig:
     """The embedded default of the demo (no configuration file needed)."""
 
     scenario: str = "SC3"
-    duration_s: float = 450.0  #: filter run, 002 §6.2
+    duration_s: float = 450.0  #: filter run, Renis et al. §6.2
     dt_s: float = 1.0
     filters: tuple[str, ...] = ("ekf", "ukf")
     target: str = "atlas-centaur"
@@ -139,8 +139,8 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     full = pd.DataFrame(rows)
     notes = (f"{sc.name} ({sc.description}), {config.duration_s:g} s at {config.dt_s:g} s, the same simulated pose measurements "
              f"for every run. 'no prior': the general tuning and ω̂_0 = 0; 'prior: tuning + init': the tuning the light-curve prior "
-             f"points to and ω̂_0 from the prior with its P_0 block (002 §6.2). t_conv: time after which the state error stays below "
-             f"the threshold (q, w 2°, r 1 m, v 0.1 m/s, k 0.2); RMSE from t_conv on (002 §6); '–': did not converge. "
+             f"points to and ω̂_0 from the prior with its P_0 block (Renis et al. §6.2). t_conv: time after which the state error stays below "
+             f"the threshold (q, w 2°, r 1 m, v 0.1 m/s, k 0.2); RMSE from t_conv on (Renis et al. §6); '–': did not converge. "
              f"Prior: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s from the light curve ({100 * rendered.rate_error:+.3f} % "
              f"from the rendered truth); {rendered.mapping}")
     tables = [Table("comparison", f"lcnav demo: EKF and UKF on {sc.name}, with and without the light-curve prior", table, notes, default_format=".3g")]

@@ -1,4 +1,4 @@
-"""Study ``init``: the kinematic prior as initial condition (``002_…`` §6.2, Tables 4 and 5, Fig. 6).
+"""Study ``init``: the kinematic prior as initial condition (Renis et al. §6.2, Tables 4 and 5, Fig. 6).
 
 SC3 (two axes, slow), 450 s at 1 s, the scenario-specific filter ``KF_sc``
 (the named tuning ``tuning``). Each seed runs every filter twice on the same
@@ -37,16 +37,16 @@ from studies.sweep import RunSpec
 from studies.tables import Table
 from studies.truth import simulate_truth
 
-TITLE = "Initialisation with the kinematic prior (002 §6.2): convergence time and steady-state error, with and without the prior"
+TITLE = "Initialisation with the kinematic prior (Renis et al. §6.2): convergence time and steady-state error, with and without the prior"
 
 FIELDS: dict[str, Field] = {
     "filters": Field("list[str]", "Filters to run.", choices=tuple(FILTERS)),
-    "scenario": Field("str", "Scenario (002 §6.2: SC3).", choices=tuple(SCENARIOS)),
+    "scenario": Field("str", "Scenario (Renis et al. §6.2: SC3).", choices=tuple(SCENARIOS)),
     "n_seeds": Field("int", "Seeds (paired runs with and without the prior) per filter.", ge=2),
     "duration_s": Field("float", "Simulated time per run, s.", gt=0),
     "dt_s": Field("float", "Filter step = measurement period tau_s, s.", gt=0),
     "tuning": Field("str", "Named tuning of the filter (KF_sc of the scenario).", choices=tuple(TUNINGS)),
-    "prior_rate_error": Field("float", "Relative error of the prior rate (002 §5.3: 0.05).", gt=0, default=0.05),
+    "prior_rate_error": Field("float", "Relative error of the prior rate (Renis et al. §5.3: 0.05).", gt=0, default=0.05),
     "prior_error_direction": Field("str", "Direction of the prior's error.", choices=("random", "along"), default="random"),
     "P0_w_prior": Field("float", "P_0 diagonal of the rate block with the prior, (rad/s)^2.", gt=0, default=1e-4),
     **COMMON_FIELDS,
@@ -143,7 +143,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 
 def plot_fig6(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
-    """Fig. 6 of ``002_…``: errors of q_TS, ω_ST and k against time, without and with the prior (median and IQR over seeds)."""
+    """Fig. 6 of Renis et al.: errors of q_TS, ω_ST and k against time, without and with the prior (median and IQR over seeds)."""
     th = thresholds(config)
     rows = [("q", np.degrees(1.0), "q_TS error (deg)", np.degrees(th["q"])), ("w", np.degrees(1.0), "ω_ST error (deg/s)", np.degrees(th["w"])),
             ("k", 1.0, "k error |δk|", th["k"])]

@@ -1,4 +1,4 @@
-"""Evaluation metrics of ``002_…`` §6 ("Evaluation Metrics"), plus NEES and NIS.
+"""Evaluation metrics of Renis et al. §6 ("Evaluation Metrics"), plus NEES and NIS.
 
 Per component group — ``q`` (attitude, as an angle in rad), ``w`` (rad/s),
 ``r`` (m), ``v`` (m/s), ``k`` (inertia ratios) — a per-step magnitude ``m(t)``:

@@ -1,6 +1,6 @@
 """One navigation run as the filter studies and ``lcnav run`` do it: measurements, initial guess, filter, metrics, recording.
 
-Shared by ``lcnav run`` (:mod:`studies.run_cmd`) and the studies of ``002_…``
+Shared by ``lcnav run`` (:mod:`studies.run_cmd`) and the studies of Renis et al.
 §6 (:mod:`studies.tuning_study`, :mod:`studies.init_study`,
 :mod:`studies.proxy_study`):
 
@@ -14,7 +14,7 @@ Shared by ``lcnav run`` (:mod:`studies.run_cmd`) and the studies of ``002_…``
 * :func:`consistency_check` — Monte-Carlo NEES/NIS and gate rates of one
   filter and tuning from initial errors drawn from its ``P_0``;
 * :func:`error_series` — per-step error magnitude and 1-σ per group, the
-  data of the error-vs-time figures (Figs 6 and 7 of ``002_…``);
+  data of the error-vs-time figures (Figs 6 and 7 of Renis et al.);
 * :func:`record_navigation` — the run's ``.rrd`` in the layout of
   :mod:`studies.blueprint` (truth, estimate, error ±3σ, measurements, gates).
 """
@@ -51,7 +51,7 @@ def one_axis(w) -> bool:
 
 
 def initial_guess(tr: Truth, rng: np.random.Generator, inertia_range=(0.7, 1.3)) -> np.ndarray:
-    """§6 of ``002_…``: ``q_TS = 1``, ``ω = r = v = 0``, ``k`` of ``J_T · a``, ``a_i ~ U(lo, hi)``."""
+    """§6 of Renis et al.: ``q_TS = 1``, ``ω = r = v = 0``, ``k`` of ``J_T · a``, ``a_i ~ U(lo, hi)``."""
     a = rng.uniform(inertia_range[0], inertia_range[1], 3)
     x0 = np.zeros(15)
     x0[0] = 1.0
@@ -254,7 +254,7 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
             send_scalars(rec, entity, te, values)
 
 
-# ---- what the filter studies of 002 §6 share: config fields, thresholds, priors, tables, figures
+# ---- what the filter studies of Renis et al. §6 share: config fields, thresholds, priors, tables, figures
 
 #: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
 COMMON_FIELDS: dict[str, Field] = {
@@ -263,11 +263,11 @@ COMMON_FIELDS: dict[str, Field] = {
     "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
     "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
     "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
-    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of 002); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of Renis et al.); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
     "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m; the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_r_m),
     "noise_model": Field("str", "Pose noise distribution (gaussian: N(0, sigma^2/3 I); isotropic: eq. 34 literally, same covariance, not chi-square).", choices=NOISE_MODELS, default=PoseNoise.model),
     "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
-    "gate_confidence": Field("float", "Chi-square validation gate confidence per source (002 §4.3).", gt=0, le=0.999999, default=0.99),
+    "gate_confidence": Field("float", "Chi-square validation gate confidence per source (Renis et al. §4.3).", gt=0, le=0.999999, default=0.99),
     "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd (and errors.parquet) for every run.", default=True),

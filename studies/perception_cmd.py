@@ -7,7 +7,7 @@
 
 ``frames`` renders a stereo pair of the target at the given range (random
 attitude and a Sun lighting the visible side, drawn from ``--seed``), builds
-the point cloud, and registers it (eqs 3–8 of ``000_…``) against the ideal
+the point cloud, and registers it (eqs 3–8 of Maestrini et al.) against the ideal
 coarse model (3000 points on the target's surface) from a filter estimate
 perturbed by ``--estimate-error-deg`` and ``--estimate-error-m``. It writes
 ``DIR/left.png``, ``DIR/right.png`` (the tone-mapped grey images the pipeline

@@ -1,4 +1,4 @@
-"""Study ``proxy``: the kinematic prior as a proxy measurement through a fault (``002_…`` §6.3, Table 6, Fig. 7).
+"""Study ``proxy``: the kinematic prior as a proxy measurement through a fault (Renis et al. §6.3, Table 6, Fig. 7).
 
 SC1 (one axis, slow), 300 s at 1 s, the scenario-specific tuning; in both arms
 the prior initialises the rate as in study 2 (§6.3: "the kinematic priors are
@@ -42,22 +42,22 @@ from studies.sweep import RunSpec
 from studies.tables import Table
 from studies.truth import simulate_truth
 
-TITLE = "Kinematic prior as proxy measurement through a fault (002 §6.3): steady-state error after the fault, errors during it"
+TITLE = "Kinematic prior as proxy measurement through a fault (Renis et al. §6.3): steady-state error after the fault, errors during it"
 
 FIELDS: dict[str, Field] = {
     "filters": Field("list[str]", "Filters to run.", choices=tuple(FILTERS)),
-    "scenario": Field("str", "Scenario (002 §6.3: SC1).", choices=tuple(SCENARIOS)),
+    "scenario": Field("str", "Scenario (Renis et al. §6.3: SC1).", choices=tuple(SCENARIOS)),
     "n_seeds": Field("int", "Seeds (paired runs with and without the proxy) per filter.", ge=2),
     "duration_s": Field("float", "Simulated time per run, s.", gt=0),
     "dt_s": Field("float", "Filter step = measurement period tau_s, s.", gt=0),
     "tuning": Field("str", "Named tuning of the filter (KF_sc of the scenario).", choices=tuple(TUNINGS)),
     "fault_start_s": Field("float", "Start of the fault window, s.", ge=0),
-    "fault_duration_s": Field("float", "Length of the fault window, s (002 §6.3: 120).", gt=0),
+    "fault_duration_s": Field("float", "Length of the fault window, s (Renis et al. §6.3: 120).", gt=0),
     "fault_sigma_scale": Field("float", "Fault noise as a multiple of the nominal pose noise.", gt=1, default=50.0),
-    "settling_s": Field("float", "Steady-state RMSE from fault end + this, s (002 Table 6: 30).", ge=0, default=30.0),
-    "prior_rate_error": Field("float", "Relative error of the prior rate (002 §5.3: 0.05).", gt=0, default=0.05),
+    "settling_s": Field("float", "Steady-state RMSE from fault end + this, s (Renis et al. Table 6: 30).", ge=0, default=30.0),
+    "prior_rate_error": Field("float", "Relative error of the prior rate (Renis et al. §5.3: 0.05).", gt=0, default=0.05),
     "prior_error_direction": Field("str", "Direction of the prior's error.", choices=("random", "along"), default="along"),
-    "R_omega": Field("float", "Variance of the pushed prior per axis, (rad/s)^2 (002 §6.3: 1e-3).", gt=0, default=1e-3),
+    "R_omega": Field("float", "Variance of the pushed prior per axis, (rad/s)^2 (Renis et al. §6.3: 1e-3).", gt=0, default=1e-3),
     "proxy_mode": Field("str", "When the proxy is pushed.", choices=PROXY_MODES, default="always"),
     **COMMON_FIELDS,
 }
@@ -196,7 +196,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 
 def plot_fig7(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
-    """Fig. 7 of ``002_…``: q_TS and ω_ST errors against time, without and with the proxy, the fault window shaded."""
+    """Fig. 7 of Renis et al.: q_TS and ω_ST errors against time, without and with the proxy, the fault window shaded."""
     rows = [("q", np.degrees(1.0), "q_TS error (deg)", None), ("w", np.degrees(1.0), "ω_ST error (deg/s)", None)]
     paired_error_figure(runs, path, arm="proxy", labels=("no proxy", "with proxy"), rows=rows, scenario=config["scenario"],
                         shade=(config["fault_start_s"], config["fault_start_s"] + config["fault_duration_s"]))

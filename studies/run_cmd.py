@@ -2,7 +2,7 @@
 
 Per run ``i`` (seed ``seed + i``): the scenario's truth (:mod:`studies.truth`),
 simulated pose measurements at ``1/τ_s`` (:mod:`perception.simulated_pose`,
-or a measurement file), the initial guess of §6 of ``002_…`` (``q_TS = 1``,
+or a measurement file), the initial guess of §6 of Renis et al. (``q_TS = 1``,
 ``ω = r = v = 0``, ``k`` from the true inertia scaled by ``U(0.7, 1.3)`` per
 axis), optionally the prior as initial condition and/or proxy, then the filter.
 Writes, after everything has run (nothing is written on an error):
@@ -147,7 +147,7 @@ def run(
     duration: float = typer.Option(300.0, help="Simulated time, s (at most 1e5 filter steps).", callback=v.number(0, 1e6, lo_open=True, unit="s")),
     dt: float = typer.Option(1.0, help="Sampling time tau_s of the filter and the pose estimator, s.", callback=v.number(0, 600, lo_open=True, unit="s")),
     prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises).", callback=v.text(PRIOR_USES)),
-    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (002 §5.3).", callback=v.number(0, 10, lo_open=True)),
+    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (Renis et al. §5.3).", callback=v.number(0, 10, lo_open=True)),
     prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error).", callback=v.text()),
     prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis.", callback=v.path_text()),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),

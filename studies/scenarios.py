@@ -1,12 +1,12 @@
 """Scenario definitions: the papers' test cases as data.
 
-* SC1–SC4 of ``002_…`` Table 1: a rocket body with ``k1 = 1.466``,
+* SC1–SC4 of Renis et al. Table 1: a rocket body with ``k1 = 1.466``,
   ``k2 = −1.439`` (``J = diag(e^k1, 1, e^-k2) = diag(4.33, 1, 4.22)``; the
   paper's rounded ``diag(4.33, 1, 4)`` would give ``k2 = −1.386``: lcnav keeps
   the ``k`` values, which are what the filters estimate and the tables report),
   tumbling at the Table 1 rates, servicer 50 m behind it on the same circular
   LEO orbit.
-* COMBINA: the §VI scenario of ``000_…``: 800 km circular orbit with
+* COMBINA: the §VI scenario of Maestrini et al.: 800 km circular orbit with
   ``TU = 1/n = 963.65 s``, ``LU = 12 m``, the target at the eq. 46 offset from
   the chaser with the eq. 47 attitude, rate and inertia ratios.
 
@@ -23,9 +23,9 @@ from estimators.attitude import mrp_to_quat, rotvec_to_quat
 from estimators.dynamics import MU_EARTH, R_EARTH
 
 TU_COMBINA_S = 963.65
-"""Time unit of ``000_…`` §VI: the inverse mean motion of the chaser's orbit, s."""
+"""Time unit of Maestrini et al. §VI: the inverse mean motion of the chaser's orbit, s."""
 LU_COMBINA_M = 12.0
-"""Length unit of ``000_…`` §VI: the target's keep-out radius, m."""
+"""Length unit of Maestrini et al. §VI: the target's keep-out radius, m."""
 
 
 @dataclass(frozen=True)
@@ -57,13 +57,13 @@ _Q_IT0_SC = tuple(rotvec_to_quat(np.array([0.3, -0.2, 0.5])).tolist())
 _K_SC = (1.466, -1.439)
 
 SCENARIOS: dict[str, Scenario] = {
-    "SC1": Scenario("SC1", "002 Table 1: 1 axis, slow (0.05 rad/s about z)", _K_SC, (0.0, 0.0, 0.050), _Q_IT0_SC, _LEO_500),
-    "SC2": Scenario("SC2", "002 Table 1: 1 axis, fast (0.2 rad/s about z)", _K_SC, (0.0, 0.0, 0.200), _Q_IT0_SC, _LEO_500),
-    "SC3": Scenario("SC3", "002 Table 1: 2 axes, slow (0.02, 0, 0.045) rad/s", _K_SC, (0.020, 0.0, 0.045), _Q_IT0_SC, _LEO_500),
-    "SC4": Scenario("SC4", "002 Table 1: 2 axes, fast (0.1, 0, 0.15) rad/s", _K_SC, (0.100, 0.0, 0.150), _Q_IT0_SC, _LEO_500),
+    "SC1": Scenario("SC1", "Renis et al. Table 1: 1 axis, slow (0.05 rad/s about z)", _K_SC, (0.0, 0.0, 0.050), _Q_IT0_SC, _LEO_500),
+    "SC2": Scenario("SC2", "Renis et al. Table 1: 1 axis, fast (0.2 rad/s about z)", _K_SC, (0.0, 0.0, 0.200), _Q_IT0_SC, _LEO_500),
+    "SC3": Scenario("SC3", "Renis et al. Table 1: 2 axes, slow (0.02, 0, 0.045) rad/s", _K_SC, (0.020, 0.0, 0.045), _Q_IT0_SC, _LEO_500),
+    "SC4": Scenario("SC4", "Renis et al. Table 1: 2 axes, fast (0.1, 0, 0.15) rad/s", _K_SC, (0.100, 0.0, 0.150), _Q_IT0_SC, _LEO_500),
     "COMBINA": Scenario(
         "COMBINA",
-        "000 §VI: 800 km orbit (TU = 963.65 s, LU = 12 m), eq. 46 football orbit, eq. 47 attitude",
+        "Maestrini et al. §VI: 800 km orbit (TU = 963.65 s, LU = 12 m), eq. 46 football orbit, eq. 47 attitude",
         (0.03, -0.1),
         tuple((np.array([-0.3953, -0.7065, -0.8153]) / TU_COMBINA_S).tolist()),
         tuple(mrp_to_quat(np.array([-0.083, 0.220, -0.500])).tolist()),

@@ -2,7 +2,7 @@
 
 Each body follows a Keplerian orbit and torque-free attitude dynamics
 (``estimators.dynamics.integrate_absolute``, DOP853 at 1e-12); the relative
-state of eq. 17 of ``002_…`` is derived from the two absolute states at every
+state of eq. 17 of Renis et al. is derived from the two absolute states at every
 sample, never integrated. This is what the filters are scored against.
 """
 

@@ -2,7 +2,7 @@
 
 Every filter study trusts two things: the truth simulator (two independent
 DOP853 integrations of servicer and target, ``studies/truth.py``) and the
-filters' process model (the 15-state relative dynamics, eq. 21 of ``002_…``,
+filters' process model (the 15-state relative dynamics, eq. 21 of Renis et al.,
 propagated by RK4 in ``estimators.dynamics.propagate_relative``). This study
 checks them against each other and against conservation laws, over the
 scenarios and many random initial conditions:
@@ -44,7 +44,7 @@ from studies.tables import Table
 from studies.truth import simulate_truth
 from studies.truth_recording import log_truth
 
-TITLE = "Truth-model check: truth simulator vs the RK4 relative model (eq. 21 of 002), conservation, geometry"
+TITLE = "Truth-model check: truth simulator vs the RK4 relative model (eq. 21 of Renis et al.), conservation, geometry"
 
 FIELDS: dict[str, Field] = {
     "scenarios": Field("list[str]", "Scenarios to check.", choices=tuple(SCENARIOS)),

@@ -1,4 +1,4 @@
-"""Study ``tuning``: ``Q_d`` tuning by orders of magnitude (``002_…`` §6.1, Algorithm 1, Tables 2 and 3).
+"""Study ``tuning``: ``Q_d`` tuning by orders of magnitude (Renis et al. §6.1, Algorithm 1, Tables 2 and 3).
 
 For every ``Q_d`` on the grid (each block of ``q_blocks`` takes every
 ``10**e``, ``e`` in ``q_exponents``; the other blocks keep ``q_base_tuning``'s
@@ -49,7 +49,7 @@ from studies.sweep import RunSpec, make_specs
 from studies.tables import Table
 from studies.truth import simulate_truth
 
-TITLE = "Q_d tuning by orders of magnitude (002 §6.1, Algorithm 1): scenario-specific vs general filter"
+TITLE = "Q_d tuning by orders of magnitude (Renis et al. §6.1, Algorithm 1): scenario-specific vs general filter"
 
 #: Grid block name -> metric group / error-state slice.
 BLOCKS = {"q_TS": "q", "w_ST_T": "w", "r_ST_T": "r", "v_ST_T": "v", "k": "k"}
@@ -57,7 +57,7 @@ BLOCKS = {"q_TS": "q", "w_ST_T": "w", "r_ST_T": "r", "v_ST_T": "v", "k": "k"}
 FIELDS: dict[str, Field] = {
     "filters": Field("list[str]", "Filters to tune.", choices=tuple(FILTERS)),
     "scenarios": Field("list[str]", "Scenarios of Algorithm 1.", choices=tuple(s for s in SCENARIOS if s.startswith("SC"))),
-    "general_scenario": Field("str", "KF_gen = best Q_d on this scenario (002 §6.1: SC4).", choices=tuple(s for s in SCENARIOS if s.startswith("SC"))),
+    "general_scenario": Field("str", "KF_gen = best Q_d on this scenario (Renis et al. §6.1: SC4).", choices=tuple(s for s in SCENARIOS if s.startswith("SC"))),
     "n_seeds": Field("int", "Seeds per (filter, scenario, Q_d), shared by every Q_d.", ge=1),
     "duration_s": Field("float", "Simulated time per run, s.", gt=0),
     "dt_s": Field("float", "Filter step = measurement period tau_s, s.", gt=0),

@@ -1,6 +1,6 @@
 """Filter consistency: 30 seeded runs of SC1 and SC3, NEES in its 95 % band after convergence.
 
-Nominal noise is the pose-estimator model of ``002_…`` §4.4 with Gaussian
+Nominal noise is the pose-estimator model of Renis et al. §4.4 with Gaussian
 rotation-vector and position errors of the paper's covariance
 (``noise="gaussian"``), the ``consistent`` tuning (``Q_d = 0``: the truth is
 torque-free and Keplerian and the filters' model matches it to 1e-7 m per
@@ -8,7 +8,7 @@ step). "After convergence": every run starts from an error drawn from
 ``P_0`` of the size a converged filter has (1-σ 0.01 rad, 1.6e-4 rad/s,
 0.05 m, 2 mm/s, 0.01 on ``k``), and the NEES is tested from the tenth step
 on. In SC1 (spin about a principal axis) the inertia ratios do not affect the
-motion, so they are considered, not estimated (§6.1 of ``002_…``), and the NEES
+motion, so they are considered, not estimated (§6.1 of Renis et al.), and the NEES
 has 12 degrees of freedom; in SC3 all 14 are estimated.
 
 Two tests:

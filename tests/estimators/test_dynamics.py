@@ -43,7 +43,7 @@ def test_energy_and_momentum_conserved_over_one_orbit(one_orbit, body):
 
 @pytest.mark.parametrize("name", ["SC1", "SC3", "SC4"])
 def test_relative_model_reproduces_independent_absolute_integrations(name):
-    """Eq. 21 of 002_… integrated alone (RK4, 0.01 s) = relative state of two absolute truths."""
+    """Eq. 21 of Renis et al. integrated alone (RK4, 0.01 s) = relative state of two absolute truths."""
     truth = simulate_truth(get_scenario(name), 300.0, 1.0)
     xs, _ = dyn.propagate_relative(truth.x[0], truth.servicer[0], truth.J_S_diag, 0.01, 30000, stride=100)
     assert np.max(np.linalg.norm(xs[:, 7:10] - truth.x[:, 7:10], axis=1)) < 1e-3  # m
@@ -77,7 +77,7 @@ def test_relative_rhs_batch_matches_single():
 
 
 def test_nerm_stays_within_one_percent_of_cw_football():
-    """Eq. 46 of 000_… under NERM (eq. 9) vs the CW closed form over one orbit."""
+    """Eq. 46 of Maestrini et al. under NERM (eq. 9) vs the CW closed form over one orbit."""
     n = 1.0 / TU_COMBINA_S
     R_t = (dyn.MU_EARTH / n**2) ** (1 / 3)
     x0 = np.r_[LU_COMBINA_M * np.array([2.0, 0.0, 0.2]), LU_COMBINA_M * n * np.array([0.0, -4.0, 0.0])]
@@ -102,7 +102,7 @@ def test_cw_stm_solves_the_linearised_equations():
 
 
 def test_axisymmetric_precession_matches_torque_free_integration():
-    """Eqs 35–40 of 000_…: the symmetry axis cones about Γ like the full rigid body says."""
+    """Eqs 35–40 of Maestrini et al.: the symmetry axis cones about Γ like the full rigid body says."""
     A, B = 1.0, 0.35  # symmetry axis = body y (moment B), A = C
     J = np.array([A, B, A])
     w0 = np.array([0.04, 0.10, -0.03])

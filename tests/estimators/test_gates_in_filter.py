@@ -1,4 +1,4 @@
-"""The chi-square validation gate inside both filters (``000_…`` eq. 18–20; ``002_…`` §4.3).
+"""The chi-square validation gate inside both filters (Maestrini et al. eq. 18–20; Renis et al. §4.3).
 
 The gate is one-sided (:mod:`estimators.gates`): on nominal data (Gaussian
 noise of the filters' own ``R_d``, consistent filter) each source must reject

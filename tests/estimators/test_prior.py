@@ -1,4 +1,4 @@
-"""Spin priors: the prior object, its three uses, and the 120 s blackout of §6.3 of ``002_…``."""
+"""Spin priors: the prior object, its three uses, and the 120 s blackout of §6.3 of Renis et al."""
 
 import numpy as np
 import pytest
@@ -104,7 +104,7 @@ def _blackout(truth, name, proxy, seed=1, reacquire_window=5):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name):
-    """§6.3 of ``002_…``: a 120 s fault on both parts, seeds 1–5.
+    """§6.3 of Renis et al.: a 120 s fault on both parts, seeds 1–5.
 
     Reconverged within 30 s of the end of the fault means: ``ω``, ``r`` and
     ``v`` are back below the §6 thresholds (2 deg/s, 1 m, 0.1 m/s) by 30 s and
@@ -140,7 +140,7 @@ def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name
 
 @pytest.mark.slow
 def test_without_reacquisition_the_gate_locks_the_ukf_out(truth):
-    """The paper's rule alone (§4.3 of ``002_…``): after the blackout every good position is rejected."""
+    """The paper's rule alone (§4.3 of Renis et al.): after the blackout every good position is rejected."""
     _, e, run = _blackout(truth, "ukf", "on_reject", 1, reacquire_window=None)
     after = run.t >= 180.0
     assert not run.accepted["position"][after].any()

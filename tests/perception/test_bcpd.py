@@ -1,4 +1,4 @@
-"""Rigid BCPD recovers known similarity transforms (issue #5, §IV.A of 000_…)."""
+"""Rigid BCPD recovers known similarity transforms (issue #5, §IV.A of Maestrini et al.)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Pose measurements of eqs 3–8 of 000_…: MRP extraction, recovered pose, gates, degenerate clouds."""
+"""Pose measurements of eqs 3–8 of Maestrini et al.: MRP extraction, recovered pose, gates, degenerate clouds."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Coarse model: outlier removal, carving, downsampling and PCA axes (§III.B of 000_…)."""
+"""Coarse model: outlier removal, carving, downsampling and PCA axes (§III.B of Maestrini et al.)."""
 
 from __future__ import annotations
 

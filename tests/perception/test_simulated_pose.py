@@ -1,4 +1,4 @@
-"""Simulated pose measurements (eqs 33–34 of ``002_…``): noise statistics, faults, range scaling, seeds."""
+"""Simulated pose measurements (eqs 33–34 of Renis et al.): noise statistics, faults, range scaling, seeds."""
 
 import numpy as np
 import pytest

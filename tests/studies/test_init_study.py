@@ -1,4 +1,4 @@
-"""`lcnav study init --quick` (002 §6.2): outputs and recordings; the prior as initial condition speeds up k."""
+"""`lcnav study init --quick` (Renis et al. §6.2): outputs and recordings; the prior as initial condition speeds up k."""
 
 import numpy as np
 import pandas as pd
@@ -42,5 +42,5 @@ def test_prior_starts_the_rate_within_its_error(quick_init):
     np.testing.assert_allclose(prior["prior_w_err_rad_s"], 0.05 * w_T, rtol=1e-9)
     assert (prior["w0_err_rad_s"] <= prior["prior_w_err_rad_s"] + 2 * 1.2e-3).all()
     assert (runs.loc[~runs["prior"], "w0_err_rad_s"] > 0.8 * w_T).all()
-    # starting within the 2 deg/s threshold, the rate is converged from t = 0 (Table 4 of 002: 0 s)
+    # starting within the 2 deg/s threshold, the rate is converged from t = 0 (Table 4 of Renis et al.: 0 s)
     assert (prior["ct_w_s"] == 0).all()

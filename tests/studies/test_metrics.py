@@ -1,4 +1,4 @@
-"""Metrics of ``002_…`` §6 (convergence time, steady-state RMSE) and NEES/NIS bands."""
+"""Metrics of Renis et al. §6 (convergence time, steady-state RMSE) and NEES/NIS bands."""
 
 import numpy as np
 import pytest

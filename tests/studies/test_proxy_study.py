@@ -1,4 +1,4 @@
-"""`lcnav study proxy --quick` (002 §6.3): outputs and recordings; the proxy holds the rate through the fault."""
+"""`lcnav study proxy --quick` (Renis et al. §6.3): outputs and recordings; the proxy holds the rate through the fault."""
 
 import numpy as np
 import pandas as pd

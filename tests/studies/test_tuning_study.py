@@ -1,4 +1,4 @@
-"""`lcnav study tuning --quick` (002 §6.1, Algorithm 1): outputs and recordings; the score and the selection."""
+"""`lcnav study tuning --quick` (Renis et al. §6.1, Algorithm 1): outputs and recordings; the score and the selection."""
 
 import numpy as np
 import pandas as pd
