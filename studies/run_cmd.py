@@ -23,6 +23,7 @@ Writes, after everything has run (nothing is written on an error):
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
@@ -33,7 +34,7 @@ import typer
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
 from estimators.prior import PROXY_MODES, SpinPrior, prior_from_rate, tuning_for_prior
-from estimators.tuning import TUNINGS, get_tuning
+from estimators.tuning import TUNINGS, Tuning, get_tuning
 from perception.simulated_pose import parse_faults
 from studies import validate as v
 from studies.io import output_folder, write_json, write_table
@@ -167,7 +168,81 @@ def run(
     out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
-    # ---- validate everything before any work or output (bounds of single options: their callbacks)
+    setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
+                   prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
+                   p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out)
+    results = _monte_carlo(setup)
+    metrics = _run_metrics(setup, results)
+    # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
+    first, meas0, _ = results[0]
+    tr = setup.truth
+    with output_folder(out, "run") as stage:
+        write_table(stage / "states.parquet", _states_table(tr, first))
+        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
+        write_json(stage / "metrics.json", metrics)
+    for line in summary_lines(metrics):
+        typer.echo(line)
+    typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """What ``lcnav run`` runs, validated: the truth, the filter and its tuning, the prior, the measurements' noise and faults, the gates."""
+
+    truth: Truth
+    filter: str
+    tuning: Tuning
+    P0: np.ndarray
+    spin: SpinPrior | None
+    prior_use: str
+    proxy_mode: str
+    faults: tuple
+    pose_noise: PoseNoise
+    gate_confidence: float | None
+    gate_start_s: float
+    consider: tuple
+    meas: object  #: measurements read from --measurements, or None to simulate them
+    reacquire_window: int | None
+    runs: int
+    seed: int
+    config: dict  #: the options as metrics.json records them
+
+
+def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> SpinPrior | None:
+    if prior_json is not None and prior_rate_deg_s is not None:
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+    if prior_json is not None:
+        return _read_prior_json(prior_json, prior_axis)
+    if prior_rate_deg_s is None:
+        return None
+    if not prior_rate_deg_s.strip():
+        raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+    w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
+    return SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
+
+
+def _parse_faults(fault: str | None) -> tuple:
+    if not fault:
+        return ()
+    start, length = _floats(fault, 2, "--fault", max_abs=1e6)
+    if start < 0 or length <= 0:
+        v.fail("--fault", fault, "'START,LENGTH' in s with START >= 0 and LENGTH > 0")
+    return parse_faults([(start, length)])
+
+
+def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
+    if p0_diag is None:
+        return None
+    d = _floats(p0_diag, 14, "--p0-diag")
+    if np.any(d <= 0):
+        v.fail("--p0-diag", p0_diag, "14 variances > 0 (P_0 positive definite)")
+    return np.diag(d)
+
+
+def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out) -> RunSetup:
+    """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
         v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} filter steps")
@@ -176,82 +251,65 @@ def run(
     pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
     if out is None:
         raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
-    if prior_json is not None and prior_rate_deg_s is not None:
-        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
-    faults = ()
-    if fault:
-        start, length = _floats(fault, 2, "--fault", max_abs=1e6)
-        if start < 0 or length <= 0:
-            v.fail("--fault", fault, "'START,LENGTH' in s with START >= 0 and LENGTH > 0")
-        faults = parse_faults([(start, length)])
-    spin = None
-    if prior_json is not None:
-        spin = _read_prior_json(prior_json, prior_axis)
-    elif prior_rate_deg_s is not None:
-        if not prior_rate_deg_s.strip():
-            raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
-        w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
-        spin = SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
-    P0 = None
-    if p0_diag is not None:
-        d = _floats(p0_diag, 14, "--p0-diag")
-        if np.any(d <= 0):
-            v.fail("--p0-diag", p0_diag, "14 variances > 0 (P_0 positive definite)")
-        P0 = np.diag(d)
+    spin = _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error)
+    faults = _parse_faults(fault)
+    P0 = _parse_p0(p0_diag)
     meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
     tr = simulate_truth(sc, duration, dt)
     if spin is None and prior != "none":
         spin = SpinPrior.from_truth(tr.target[0, 10:13], prior_error)
     tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
     tun = get_tuning(tuning_name)
-    P0 = tun.P_0 if P0 is None else P0
     consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
+    config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
+              "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
+              "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
+              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()}
+    return RunSetup(tr, filter_, tun, tun.P_0 if P0 is None else P0, spin, prior, proxy_mode, faults, pose_noise, gate_confidence or None,
+                    gate_start, consider, meas, reacquire_window or None, runs, seed, config)
 
-    # ---- run
+
+def _monte_carlo(setup: RunSetup) -> list:
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i``."""
     results = []
-    for i in range(runs):
-        rng = np.random.default_rng(seed + i)
-        run_i, meas_i = navigate(tr, filter_, tun, rng, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, pose_noise=pose_noise,
-                                 gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, meas=meas,
-                                 reacquire_window=reacquire_window or None)
+    tr = setup.truth
+    for i in range(setup.runs):
+        rng = np.random.default_rng(setup.seed + i)
+        run_i, meas_i = navigate(tr, setup.filter, setup.tuning, rng, P0=setup.P0, prior=setup.spin, prior_use=setup.prior_use,
+                                 proxy_mode=setup.proxy_mode, faults=setup.faults, pose_noise=setup.pose_noise,
+                                 gate_confidence=setup.gate_confidence, gate_start_s=setup.gate_start_s, consider=setup.consider,
+                                 meas=setup.meas, reacquire_window=setup.reacquire_window)
         results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
-    states = np.arange(12) if consider else np.arange(14)
+    return results
+
+
+def _mean_over_runs(results, g: str, key: str):
+    values = [getattr(r[2]["state"][g], key) for r in results]
+    return _num(float(np.nanmean(values)) if any(np.isfinite(values)) else float("nan"))
+
+
+def _run_metrics(setup: RunSetup, results: list) -> dict:
+    """metrics.json: the first run's §6 metrics, their means over the runs, NEES/NIS in band from :data:`SETTLING_S`, gate rates."""
+    tr = setup.truth
+    states = np.arange(12) if setup.consider else np.arange(14)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
-    nees_from = SETTLING_S
-    sel = (tr.t - tr.t[0]) >= nees_from
-    lo, hi = chi_square_band(len(states), runs, 0.95)
+    sel = (tr.t - tr.t[0]) >= SETTLING_S
+    lo, hi = chi_square_band(len(states), setup.runs, 0.95)
     avg = E[:, sel].mean(axis=0)
-    first, meas0, m0 = results[0]
-    metrics = {
-        "filter": filter_,
-        "scenario": sc.name,
+    first, _, m0 = results[0]
+    return {
+        "filter": setup.filter,
+        "scenario": tr.scenario.name,
         "components": _metrics_dict(m0["state"]),
         "nees_fraction_in_95": _num(float(np.mean((avg >= lo) & (avg <= hi))) if avg.size else float("nan")),
         "filter_components": _metrics_dict(m0["filter"]),
-        "components_mean_over_runs": {
-            g: {k: _num(float(np.nanmean([getattr(r[2]["state"][g], k) for r in results])) if any(np.isfinite(getattr(r[2]["state"][g], k)) for r in results) else float("nan"))
-                for k in ("convergence_time_s", "steady_state_rmse")}
-            for g in GROUPS
-        },
-        "nees": {"dof": int(len(states)), "from_s": float(nees_from), "band_95": [lo, hi], "runs": runs},
+        "components_mean_over_runs": {g: {k: _mean_over_runs(results, g, k) for k in ("convergence_time_s", "steady_state_rmse")} for g in GROUPS},
+        "nees": {"dof": int(len(states)), "from_s": float(SETTLING_S), "band_95": [lo, hi], "runs": setup.runs},
         "nis_fraction_in_95": {s: _num(fraction_in_band(np.array([r.nis[s][sel] for r, _, _ in results]), 3)) for s in SOURCES},
         "reacquisitions": [[t_re, source] for t_re, source in first.reacquisitions],
         "gate_rejection_rate": {s: _num(float(np.mean([np.mean(~r.accepted[s][np.isfinite(r.nis[s])]) for r, _, _ in results]))) for s in SOURCES},
-        "config": {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
-                   "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad, "sigma_r_m": sigma_r_m,
-                   "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
-                   "reacquire_window": reacquire_window or None,
-                   "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()},
+        "config": setup.config,
     }
-
-    # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
-    with output_folder(out, "run") as stage:
-        write_table(stage / "states.parquet", _states_table(tr, first))
-        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
-        write_json(stage / "metrics.json", metrics)
-    for line in summary_lines(metrics):
-        typer.echo(line)
-    typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
 
 
 def summary_lines(metrics: dict) -> list[str]:
