@@ -33,11 +33,12 @@ from astropy.timeseries import LombScargle
 from scipy import stats
 
 from lightcurves import extract_spin_prior
-from lightcurves.cadence import DAY_S, YEAR_S, curve, heteroscedastic_noise, red_noise, satellite_times, survey_times
+from lightcurves.cadence import DAY_S, SHAPES, YEAR_S, curve, heteroscedastic_noise, red_noise, satellite_times, survey_times
 
 REPORT_SEED = 2026
-N_SURVEY = 400
-N_SATELLITE = 200
+N_SURVEY = 350
+N_SATELLITE = 150
+MULTITERM_EVERY = 10  #: LombScargle nterms=3 runs on every 10th curve only (astropy fastchi2: seconds per survey curve)
 
 
 def _survey_case(rng):
@@ -112,30 +113,36 @@ def _score(cases, label):
         "LS nterms=1": lambda c: _ls_peak(c["t"], c["y"], c["err"], c["nu_min"], c["nu_max"], 1),
         "LS nterms=3": lambda c: _ls_peak(c["t"], c["y"], c["err"], c["nu_min"], c["nu_max"], 3),
     }
-    rows, times = [], {}
+    rows, times, shape_rows = [], {}, []
     kinds = ["right", "×2", "×½", "×3", "×⅓", "window alias", "imprecise", "other", "no period"]
     for name, fn in methods.items():
         counts = dict.fromkeys(kinds, 0)
+        by_shape = {sh: [0, 0] for sh in SHAPES}
         dts = []
-        for c in cases:
+        sub = cases[::MULTITERM_EVERY] if "nterms=3" in name else cases  # astropy's fastchi2 takes seconds per survey curve
+        for c in sub:
             t0 = time.perf_counter()
             f = fn(c)
             dts.append(time.perf_counter() - t0)
-            counts[_classify(f, c["f_true"], c["t"][-1] - c["t"][0], c["windows"])] += 1
+            kind = _classify(f, c["f_true"], c["t"][-1] - c["t"][0], c["windows"])
+            counts[kind] += 1
+            by_shape[c["shape"]][0] += kind == "right"
+            by_shape[c["shape"]][1] += 1
         times[name] = float(np.median(dts))
-        n = len(cases)
+        n = len(sub)
         lo, hi = stats.binomtest(counts["right"], n).proportion_ci(0.95, method="wilson")
-        rows.append(f"| {label} | {name} | {100 * counts['right'] / n:.1f} ({100 * lo:.0f}–{100 * hi:.0f}) | "
+        rows.append(f"| {label} | {name}{f' (every {MULTITERM_EVERY}th curve, n = {n})' if len(sub) < len(cases) else ''} | {100 * counts['right'] / n:.1f} ({100 * lo:.0f}–{100 * hi:.0f}) | "
                     + " | ".join(f"{100 * counts[k] / n:.1f}" for k in kinds[1:]) + (" | (same fit as lcnav) |" if "best" in name else f" | {1e3 * times[name]:.1f} |"))
+        shape_rows.append(f"| {label} | {name} | " + " | ".join(f"{100 * k / m:.0f} ({m})" if m else "—" for k, m in by_shape.values()) + " |")
     ratio = times["lcnav"] / times["LS nterms=1"]
-    return rows, ratio
+    return rows, ratio, shape_rows
 
 
 def _recovery_section(rng) -> str:
     survey = [_survey_case(rng) for _ in range(N_SURVEY)]
     sat = [_satellite_case(rng) for _ in range(N_SATELLITE)]
-    r1, q1 = _score(survey, f"survey ({N_SURVEY})")
-    r2, q2 = _score(sat, f"satellite ({N_SATELLITE})")
+    r1, q1, s1 = _score(survey, f"survey ({N_SURVEY})")
+    r2, q2, s2 = _score(sat, f"satellite ({N_SATELLITE})")
     npts = np.array([c["t"].size for c in survey])
     nsat = np.array([c["t"].size for c in sat])
     return "\n".join([
@@ -150,12 +157,21 @@ def _recovery_section(rng) -> str:
         "'right': |f/f_true − 1| < 1e-3 with f_true the fundamental; '×2' etc.: a harmonic or sub-harmonic; 'window alias': "
         "f ± k/day, k/yr or k/(pass spacing); 'imprecise': the right peak, off by more than 1e-3. LombScargle always returns a "
         "peak; lcnav returns none when no period is significant at 1 % (white or red noise) or the period has < 2 cycles.",
+        "",
+        "Right (%) by shape (number of curves):",
+        "",
+        "| cadence | method | " + " | ".join(SHAPES) + " |",
+        "|---|---|" + "---|" * len(SHAPES),
+        *s1, *s2,
+        "",
+        "Sinusoids and Cepheid-like sawtooths have one maximum per cycle, like the stars of the issue's survey test; "
+        "eclipsing and double-peaked curves have their strongest harmonic at twice the fundamental.",
     ])
 
 
 def _false_alarm_section(rng) -> str:
     level = 0.01
-    n_trials = 200
+    n_trials = 150
     cases = {
         "white, survey cadence (60 pts)": lambda: (lambda t: (t, rng.normal(0, 0.05, t.size), np.full(t.size, 0.05)))(survey_times(rng, 60)),
         "white, survey cadence (200 pts)": lambda: (lambda t: (t, rng.normal(0, 0.05, t.size), np.full(t.size, 0.05)))(survey_times(rng, 200)),
