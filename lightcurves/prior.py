@@ -231,27 +231,47 @@ def _design(tc: np.ndarray, V: np.ndarray, f: float, K: int) -> np.ndarray:
 # noise: an Ornstein–Uhlenbeck process fitted to residuals
 
 
-def _ou_fit(t: np.ndarray, r: np.ndarray) -> float:
-    """Maximum-likelihood correlation time τ (s) of an Ornstein–Uhlenbeck process for ``r`` at ``t``; 0 if white noise
-    explains ``r`` as well (likelihood-ratio test at 1 %, one parameter: Δ(−2 ln L) < 6.63)."""
-    dt = np.diff(t)
+def _correlation_fit(t: np.ndarray, r: np.ndarray) -> tuple[float, float]:
+    """``(a, τ)`` of the residuals' autocorrelation ``ρ(Δ) = a e^{−Δ/τ}`` (Δ > 0): an Ornstein–Uhlenbeck part of
+    variance fraction ``a`` plus white noise (``1 − a``); ``(0, 0)`` when white noise explains the lag products.
 
-    def m2logl(log_tau):
-        phi = np.exp(-dt / np.exp(log_tau))
-        one = np.maximum(1.0 - phi**2, 1e-12)
-        e = r[1:] - phi * r[:-1]
-        s2 = (r[0] ** 2 + np.sum(e**2 / one)) / r.size
-        return r.size * np.log(s2) + np.sum(np.log(one))
+    Moments, not maximum likelihood: the products ``r_i r_j`` of pairs up to 200 samples apart are averaged in 25
+    log-spaced lag bins and ``a e^{−Δ/τ}`` is fitted by weighted least squares (``a`` linear, ``τ`` on a grid).
+    A pure OU likelihood mistakes the white part for fast decorrelation and under-estimates τ; this does not.
+    Correlation is accepted when it lowers Σ n_b ρ_b² (χ² of "white", n_b pairs per bin) by more than 20.
+    """
+    T = t[-1] - t[0]
+    lags, prods = [], []
+    for k in range(1, min(t.size, 201)):
+        d = t[k:] - t[:-k]
+        if d.min() > 0.25 * T:
+            break
+        lags.append(d)
+        prods.append(r[k:] * r[:-k])
+    d, p = np.concatenate(lags), np.concatenate(prods)
+    keep = d <= 0.25 * T
+    d, p = d[keep], p[keep] / np.mean(r**2)
+    edges = np.geomspace(d.min() * (1 - 1e-9), d.max() * (1 + 1e-9), 26)
+    b = np.clip(np.searchsorted(edges, d) - 1, 0, 24)
+    nb = np.bincount(b, minlength=25).astype(float)
+    ok = nb > 0
+    rho = np.bincount(b, p, minlength=25)[ok] / nb[ok]
+    lag = np.bincount(b, d, minlength=25)[ok] / nb[ok]
+    nb = nb[ok]
+    best = (np.sum(nb * rho**2), 0.0, 0.0)
+    for tau in np.geomspace(0.3 * d.min(), T, 60):
+        e = np.exp(-lag / tau)
+        a = float(np.clip(np.sum(nb * e * rho) / np.sum(nb * e * e), 0.0, 1.0))
+        sse = float(np.sum(nb * (rho - a * e) ** 2))
+        if sse < best[0]:
+            best = (sse, a, float(tau))
+    white = float(np.sum(nb * rho**2))
+    return (best[1], best[2]) if white - best[0] > 20.0 and best[1] > 0 else (0.0, 0.0)
 
-    lo, hi = np.log(0.05 * dt.min()), np.log(t[-1] - t[0])
-    res = minimize_scalar(m2logl, bounds=(lo, hi), method="bounded")
-    white = r.size * np.log(np.mean(r**2))
-    return float(np.exp(res.x)) if white - res.fun > 6.63 else 0.0
 
-
-def _ou_quadratic(t: np.ndarray, u: np.ndarray, tau: float) -> float:
-    """``Σ_ij u_i u_j exp(−|t_i − t_j|/τ)`` in O(N) (the exponential kernel factorises along sorted times)."""
-    if tau <= 0.0:
+def _ou_quadratic(t: np.ndarray, u: np.ndarray, a: float, tau: float) -> float:
+    """``Σ_ij u_i u_j [(1 − a) δ_ij + a exp(−|t_i − t_j|/τ)]`` in O(N) (the exponential kernel factorises along sorted times)."""
+    if tau <= 0.0 or a <= 0.0:
         return float(u @ u)
     phi = np.exp(-np.diff(t) / tau)
     F = 0.0
@@ -259,18 +279,18 @@ def _ou_quadratic(t: np.ndarray, u: np.ndarray, tau: float) -> float:
     for i in range(1, u.size):  # F_i = Σ_{k<i} e^{−(t_i − t_k)/τ} u_k
         F = phi[i - 1] * (F + u[i - 1])
         acc += u[i] * F
-    return float(u @ u + 2.0 * acc)
+    return float(u @ u + 2.0 * a * acc)
 
 
-def _red_spectrum(t: np.ndarray, tau: float, freq: np.ndarray) -> np.ndarray:
+def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.ndarray:
     """Expected periodogram of Ornstein–Uhlenbeck noise sampled at ``t``, relative to white noise of the same variance.
 
-    ``E P(f)/σ² = 1 + (2/N) Σ_{j<k} e^{−Δ_jk/τ} cos(2πfΔ_jk)``, ``Δ_jk = t_k − t_j``: the noise's spectrum seen
+    ``E P(f)/σ² = 1 + (2a/N) Σ_{j<k} e^{−Δ_jk/τ} cos(2πfΔ_jk)``, ``Δ_jk = t_k − t_j``: the noise's spectrum seen
     through the sampling window — red noise on nightly sampling raises the periodogram near 0 *and* near
     1/day, 2/day. Only lags under 5τ count (the rest weigh < e⁻⁵); the sum over lags is a non-uniform FFT
     (astropy's ``trig_sum``) on a regular ``freq`` grid, direct otherwise. Floored at 0.05.
     """
-    if tau <= 0.0:
+    if tau <= 0.0 or a <= 0.0:
         return np.ones_like(freq)
     lags = []
     for k in range(1, t.size):
@@ -287,7 +307,7 @@ def _red_spectrum(t: np.ndarray, tau: float, freq: np.ndarray) -> np.ndarray:
         _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True)
     else:
         C = np.cos(2.0 * np.pi * np.outer(freq, d)) @ h
-    return np.maximum(1.0 + 2.0 * C / t.size, 0.05)
+    return np.maximum(1.0 + 2.0 * a * C / t.size, 0.05)
 
 
 def _continuum(z: np.ndarray, block: int = 50 * _SAMPLES_PER_PEAK) -> np.ndarray:
@@ -515,9 +535,19 @@ def extract_spin_prior(
                     f"(periodogram peaks, their window aliases, f/2, f/3, 2f); runner-up ΔBIC {delta_bic:.1f}" if delta_bic is not None else
                     f"{what} per rotation: a {K}-harmonic fit at {f_rot:.6g} Hz")
     # Step 5: significance against the residuals' noise spectrum.
-    tau = _ou_fit(t, r * w)
+    a_red, tau = _correlation_fit(t, r * w)
     z_white = -0.5 * (n - 3) * np.log1p(-power)  # Exp(1) at one frequency for white noise
-    noise_spec = np.maximum(_red_spectrum(t, tau, freq), _continuum(z_white))
+    # The continuum is read off the residuals' periodogram (one point per 1/T), in the data's units (times the
+    # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
+    ls_r = LombScargle(t, r, dy, normalization="standard")
+    coarse = freq[::_SAMPLES_PER_PEAK]
+    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12))
+    left = float(W @ r**2) / float(W @ (yd - np.average(yd, weights=W)) ** 2)
+    continuum = left * np.interp(freq, coarse, _continuum(z_res, block=50))
+    # Under the null hypothesis the data are the noise: its correlation, fitted to the detrended data, bounds the
+    # noise spectrum too (the residuals of a model fitted to red noise have lost part of their correlation).
+    a_null, tau_null = _correlation_fit(t, yd * w)
+    noise_spec = np.maximum.reduce([_red_spectrum(t, a_red, tau, freq), _red_spectrum(t, a_null, tau_null, freq), continuum])
     z = z_white / noise_spec
     i_max = int(np.argmax(z))
     fap = lambda zz: float(ls.false_alarm_probability(-np.expm1(-2.0 * zz / (n - 3)), method="baluev", minimum_frequency=nu_min, maximum_frequency=nu_max))  # noqa: E731
@@ -525,7 +555,7 @@ def extract_spin_prior(
     cycles = T * f_rot
     warnings: list[str] = []
     if tau > 0.0:
-        warnings.append(f"residuals are correlated (Ornstein–Uhlenbeck τ = {tau:.3g} s): the false-alarm probability and the 1-σ allow for it")
+        warnings.append(f"residuals are correlated ({a_red:.0%} of their variance Ornstein–Uhlenbeck, τ = {tau:.3g} s): the false-alarm probability and the 1-σ allow for it")
     cands = []
     for i in ipk:
         if fap(z[i]) <= false_alarm_level:
@@ -547,12 +577,11 @@ def extract_spin_prior(
     u = J @ A_inv[:, -1]
     rw = r * w
     s2_res = float(rw @ rw) / max(n - J.shape[1], 1)
-    var_f = s2_res * _ou_quadratic(t, u, tau)
+    var_f = s2_res * _ou_quadratic(t, u, a_red, tau)
     sigma_stat = 2.0 * np.pi * float(np.sqrt(max(var_f, 0.0)))
     sigma_syn = _bisector_rate(t, sun_dir, observer_dir, phase_angle_rad)
     # Step 7: non-principal-axis tumbling — (a) a strong residual frequency that is no harmonic of f_rot, or
     # (b) two unrelated sinusoids (the two strongest periodogram peaks, refined) fit better than the harmonic series (BIC).
-    ls_r = LombScargle(t, r, dy, normalization="standard")
     p_r = np.clip(ls_r.power(peaks, method="cython"), 0.0, 1.0 - 1e-12)  # a second strong frequency is among the peaks
     zr = -0.5 * (n - 3) * np.log1p(-p_r) / np.interp(peaks, freq, noise_spec)
     j_r = int(np.argmax(zr))
