@@ -544,14 +544,16 @@ def extract_spin_prior(
     z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12))
     left = float(W @ r**2) / float(W @ (yd - np.average(yd, weights=W)) ** 2)
     continuum = left * np.interp(freq, coarse, _continuum(z_res, block=50))
-    # Under the null hypothesis the data are the noise: its correlation, fitted to the detrended data, bounds the
-    # noise spectrum too (the residuals of a model fitted to red noise have lost part of their correlation).
+    noise_spec = np.maximum(_red_spectrum(t, a_red, tau, freq), continuum)
+    z = z_white / noise_spec  # for the candidates and the NPA test, given that a period exists
+    # Whether one exists: under the null hypothesis the data are the noise, so their own correlation (fitted to the
+    # detrended data) bounds the noise spectrum too — the residuals of a model fitted to red noise have lost part
+    # of their correlation. A real signal looks red as well, which costs a weak one its significance.
     a_null, tau_null = _correlation_fit(t, yd * w)
-    noise_spec = np.maximum.reduce([_red_spectrum(t, a_red, tau, freq), _red_spectrum(t, a_null, tau_null, freq), continuum])
-    z = z_white / noise_spec
-    i_max = int(np.argmax(z))
+    z_null = z_white / np.maximum(noise_spec, _red_spectrum(t, a_null, tau_null, freq))
+    i_max = int(np.argmax(z_null))
     fap = lambda zz: float(ls.false_alarm_probability(-np.expm1(-2.0 * zz / (n - 3)), method="baluev", minimum_frequency=nu_min, maximum_frequency=nu_max))  # noqa: E731
-    fap_max = fap(z[i_max])
+    fap_max = fap(z_null[i_max])
     cycles = T * f_rot
     warnings: list[str] = []
     if tau > 0.0:
@@ -561,14 +563,15 @@ def extract_spin_prior(
         if fap(z[i]) <= false_alarm_level:
             a, b_ = ls.model_parameters(freq[i])[1:]
             cands.append(Candidate(float(freq[i]), float(np.hypot(a, b_)), fap(z[i]), int(np.rint(freq[i] / f_rot)) if _is_harmonic(freq[i], f_rot, T) else None))
+    if cycles < min_cycles:
+        warnings.append(f"the best period {1.0 / f_rot:.4g} s fits only {cycles:.2f} cycles in the {T:.4g} s arc (< {min_cycles:g}): "
+                        "its frequency is not determined; observe longer")
     if fap_max > false_alarm_level:
         return SpinPrior(False, None, None, None, None, None, f"no significant period: the periodogram maximum has false-alarm probability {fap_max:.3g} > {false_alarm_level}"
                          + (f" (noise spectrum: Ornstein–Uhlenbeck, τ = {tau:.3g} s)" if tau > 0 else ""), tuple(cands), False, false_alarm_level, fap_max, 0,
-                         tuple(warnings), None, None, None, tau, delta_bic, float(f_rot), series)
+                         tuple(warnings), float(cycles), None, None, tau, delta_bic, float(f_rot), series)
     if cycles < min_cycles:
-        msg = f"the best period {1.0 / f_rot:.4g} s fits only {cycles:.2f} cycles in the {T:.4g} s arc (< {min_cycles:g}): its frequency is not determined; observe longer"
-        warnings.append(msg)
-        return SpinPrior(False, None, None, None, None, None, f"refused: {msg}", tuple(cands), False, false_alarm_level, fap_max, 0, tuple(warnings), float(cycles), None, None, tau, delta_bic, float(f_rot), series)
+        return SpinPrior(False, None, None, None, None, None, f"refused: {warnings[-1]}", tuple(cands), False, false_alarm_level, fap_max, 0, tuple(warnings), float(cycles), None, None, tau, delta_bic, float(f_rot), series)
     # Step 6: the 1-σ — sandwich estimator with the residuals' Ornstein–Uhlenbeck covariance, plus the synodic term.
     dm_df = 2.0 * np.pi * tc * (np.arange(1, K + 1)[None, :] * (-coef[3 : K + 3] * np.sin(2 * np.pi * f_rot * np.outer(tc, np.arange(1, K + 1)))
                                                                + coef[K + 3 :] * np.cos(2 * np.pi * f_rot * np.outer(tc, np.arange(1, K + 1))))).sum(axis=1)
