@@ -25,18 +25,19 @@ aliased photometry):
    number) is explained by the shape;
 5. **significance**: the false-alarm probability of the periodogram maximum
    (Baluev 2008, via ``LombScargle.false_alarm_probability``) after the
-   power is divided by the expected periodogram of the residual noise: the
-   larger of (a) an Ornstein–Uhlenbeck process fitted by maximum likelihood
-   to the residuals of the winner (white when that fit is no better), seen
-   through the sampling window, and (b) the periodogram's running median
-   continuum. Red noise raises the periodogram near 0 (and, on nightly
+   power is divided by the expected periodogram of the noise: the largest
+   of (a) an Ornstein–Uhlenbeck + white process whose correlation is fitted
+   by moments to the residuals of the winner (white when that fit is no
+   better), seen through the sampling window; (b) the same fitted to the
+   detrended data themselves — the null hypothesis is that they are noise;
+   (c) the residual periodogram's running-median continuum. Red noise raises the periodogram near 0 (and, on nightly
    sampling, near 1/day) by up to ``(1 + ρ)/(1 − ρ)``; without this,
    correlated noise gave confident periods in 66–100 % of trials. A period with fewer than
    ``min_cycles`` cycles in the arc is refused (``significant=False``,
    with a warning): its frequency is not determined by the data;
 6. **1-σ**: the frequency variance of the least-squares fit
    ``Var f̂ = uᵀ Σ u``, ``u = J (JᵀJ)⁻¹ e_f`` (sandwich estimator), with
-   ``Σ`` the fitted Ornstein–Uhlenbeck covariance of the residuals — the
+   ``Σ`` the fitted Ornstein–Uhlenbeck + white covariance of the residuals — the
    structure a ``K``-harmonic model leaves on a non-sinusoidal curve and
    correlated noise both make ``Σ`` non-diagonal; the white-noise ``σ`` is
    26–35× too small on renders. ``rate = 2π f_rot`` is the *synodic* rate:
