@@ -153,6 +153,8 @@ def prior(
             typer.echo(f"  candidate {c.frequency_hz:.6f} Hz  amplitude {c.amplitude_mag:.3f} mag  FAP {c.false_alarm_probability:.2g}  harmonic {c.harmonic}")
     else:
         typer.echo(p.decision)
+    for w in [] if as_json else p.warnings:
+        typer.echo(f"  warning: {w}", err=True)
     if record is not None:
         write_lightcurve_recording(record, lc, p)
 

@@ -22,3 +22,8 @@ def dirty_and_window(t: np.ndarray, y: np.ndarray, df: float, n_freq: int) -> tu
     """Dirty spectrum on ``n_freq`` points and window on ``2 n_freq − 1`` points (spacing ``df``)."""
     t = t - t[0]
     return _dft(t, y, df, n_freq), _dft(t, np.ones_like(t), df, 2 * n_freq - 1)
+
+
+def window(t: np.ndarray, df: float, n_freq: int) -> np.ndarray:
+    """The spectral window ``W(j df)``, ``j = 0 … n_freq − 1``, alone."""
+    return _dft(t - t[0], np.ones_like(t), df, n_freq)

@@ -1,0 +1,292 @@
+"""Period finding on realistic cadences: lcnav against astropy LombScargle; false alarms; calibration of the 1-σ.
+
+``python -m benchmarks periods``. Curves come from :mod:`lightcurves.cadence`
+with known truth (the fundamental of the light curve: the published period
+of a variable star, the rotation frequency of a satellite):
+
+* survey: 30–300 points over 2–5 seasons (daily and yearly windows), periods
+  3 h – 300 d (at least 8 cycles in the span), searched up to 1/(2 h), shapes sinusoid, Cepheid-like
+  sawtooth, eclipsing binary with unequal minima, double-peaked; log-normal
+  heteroscedastic errors, 2 % outliers;
+* satellite: 1–3 passes of 2–40 min, 0.1–10 s cadence with jitter and
+  dropouts, rotation periods 2 s – pass/4, double-peaked, sawtooth and
+  sinusoidal shapes.
+
+Every method searches the same band; a LombScargle peak is refined on a
+grid 20× finer around the coarse maximum (as a user would). "Right" is
+``|f/f_true − 1| < 1e-3``; wrong answers are sorted into aliases. lcnav
+answers only when it finds a significant period (its "no period" is
+counted separately, never as right).
+
+Seeds: the method's fixed choices (number of peaks and aliases, BIC, trial
+multiples) were set while looking at seeds 1–3 of this generator; this
+report uses seed ``REPORT_SEED`` (never used while tuning).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+from astropy.timeseries import LombScargle
+from scipy import stats
+
+from lightcurves import extract_spin_prior
+from lightcurves.cadence import DAY_S, SHAPES, YEAR_S, curve, heteroscedastic_noise, red_noise, satellite_times, survey_times
+
+REPORT_SEED = 2026
+N_SURVEY = 350
+N_SATELLITE = 150
+MULTITERM_EVERY = 10  #: LombScargle nterms=3 runs on every 10th curve only (astropy fastchi2: seconds per survey curve)
+
+
+def _survey_case(rng):
+    n = int(np.exp(rng.uniform(np.log(30), np.log(300))))
+    t = survey_times(rng, n, n_seasons=int(rng.integers(2, 6)))
+    T = t[-1] - t[0]
+    P = np.exp(rng.uniform(np.log(0.125 * DAY_S), np.log(min(300 * DAY_S, T / 8))))
+    shape = ("sinusoid", "sawtooth", "eclipsing", "double")[int(rng.integers(4))]
+    amp = rng.uniform(0.1, 1.0)
+    noise, err = heteroscedastic_noise(rng, t.size, amp / rng.uniform(3.0, 20.0))
+    y = 12.0 + curve(shape, t / P + rng.uniform(), amp, rng) + noise
+    return dict(t=t, y=y, err=err, f_true=1.0 / P, shape=shape, nu_min=0.5 / T, nu_max=1.0 / (2.0 * 3600.0), windows=(1 / DAY_S, 2 / DAY_S, 1 / YEAR_S))
+
+
+def _satellite_case(rng):
+    n_pass = int(rng.integers(1, 4))
+    pass_s = rng.uniform(120.0, 2400.0)
+    cadence = float(np.clip(np.exp(rng.uniform(np.log(0.1), np.log(10.0))), pass_s / 2000, pass_s / 60))
+    gap = pass_s + rng.uniform(600.0, 6000.0)
+    t = satellite_times(rng, n_passes=n_pass, pass_s=pass_s, cadence_s=cadence, pass_gap_s=gap)
+    P = np.exp(rng.uniform(np.log(max(2.0, 8 * cadence)), np.log(pass_s / 4)))
+    shape = ("sinusoid", "sawtooth", "double", "double")[int(rng.integers(4))]
+    amp = rng.uniform(0.2, 2.0)
+    noise, err = heteroscedastic_noise(rng, t.size, amp / rng.uniform(4.0, 20.0), spread=0.2, outlier_fraction=0.01)
+    y = 8.0 + curve(shape, t / P + rng.uniform(), amp, rng) + noise
+    return dict(t=t, y=y, err=err, f_true=1.0 / P, shape=shape, nu_min=0.5 / (t[-1] - t[0]), nu_max=0.5 / np.median(np.diff(t)), windows=(1.0 / gap,) if n_pass > 1 else ())
+
+
+def _ls_peak(t, y, err, nu_min, nu_max, nterms):
+    T = t[-1] - t[0]
+    ls = LombScargle(t, y, err, nterms=nterms)
+    df = 0.2 / T
+    f = nu_min + df * np.arange(int((nu_max - nu_min) / df) + 1)
+    method = "fast" if nterms == 1 else "fastchi2"
+    p = ls.power(f, method=method, assume_regular_frequency=True) if nterms == 1 else ls.power(f, method=method)
+    f0 = f[int(np.argmax(p))]
+    fine = np.linspace(f0 - df, f0 + df, 41)
+    return float(fine[int(np.argmax(ls.power(fine, method="cython" if nterms == 1 else "fastchi2")))])
+
+
+def _classify(f, f_true, T, windows) -> str:
+    if f is None:
+        return "no period"
+    if abs(f / f_true - 1) < 1e-3:
+        return "right"
+    tol = 1e-3 * f_true + 0.5 / T
+    if abs(f - f_true) < tol:
+        return "imprecise"
+    for k, name in ((2, "×2"), (0.5, "×½"), (3, "×3"), (1 / 3, "×⅓")):
+        if abs(f - k * f_true) < k * tol:
+            return name
+    for w in windows:
+        for k in (1, 2):
+            if abs(abs(f - f_true) - k * w) < tol or abs(f + f_true - k * w) < tol:
+                return "window alias"
+    return "other"
+
+
+def _lcnav(c):
+    """lcnav's answer (None when no significant period) and its best-ranked frequency, memoised per case so that
+    the second row costs no time."""
+    if "_lcnav" not in c:
+        p = extract_spin_prior(c["t"], c["y"], c["err"], nu_min=c["nu_min"], nu_max=c["nu_max"])
+        c["_lcnav"] = (p.frequency_hz if p.significant else None, p.best_frequency_hz)
+    return c["_lcnav"]
+
+
+def _score(cases, label):
+    methods = {
+        "lcnav": lambda c: _lcnav(c)[0],
+        "lcnav best-ranked (significant or not)": lambda c: _lcnav(c)[1],
+        "LS nterms=1": lambda c: _ls_peak(c["t"], c["y"], c["err"], c["nu_min"], c["nu_max"], 1),
+        "LS nterms=3": lambda c: _ls_peak(c["t"], c["y"], c["err"], c["nu_min"], c["nu_max"], 3),
+    }
+    rows, times, shape_rows = [], {}, []
+    kinds = ["right", "×2", "×½", "×3", "×⅓", "window alias", "imprecise", "other", "no period"]
+    for name, fn in methods.items():
+        counts = dict.fromkeys(kinds, 0)
+        by_shape = {sh: [0, 0] for sh in SHAPES}
+        dts = []
+        sub = cases[::MULTITERM_EVERY] if "nterms=3" in name else cases  # astropy's fastchi2 takes seconds per survey curve
+        for c in sub:
+            t0 = time.perf_counter()
+            f = fn(c)
+            dts.append(time.perf_counter() - t0)
+            kind = _classify(f, c["f_true"], c["t"][-1] - c["t"][0], c["windows"])
+            counts[kind] += 1
+            by_shape[c["shape"]][0] += kind == "right"
+            by_shape[c["shape"]][1] += 1
+        times[name] = float(np.median(dts))
+        n = len(sub)
+        lo, hi = stats.binomtest(counts["right"], n).proportion_ci(0.95, method="wilson")
+        rows.append(f"| {label} | {name}{f' (every {MULTITERM_EVERY}th curve, n = {n})' if len(sub) < len(cases) else ''} | {100 * counts['right'] / n:.1f} ({100 * lo:.0f}–{100 * hi:.0f}) | "
+                    + " | ".join(f"{100 * counts[k] / n:.1f}" for k in kinds[1:]) + (" | (same fit as lcnav) |" if "best" in name else f" | {1e3 * times[name]:.1f} |"))
+        shape_rows.append(f"| {label} | {name} | " + " | ".join(f"{100 * k / m:.0f} ({m})" if m else "—" for k, m in by_shape.values()) + " |")
+    ratio = times["lcnav"] / times["LS nterms=1"]
+    return rows, ratio, shape_rows
+
+
+def _recovery_section(rng) -> str:
+    survey = [_survey_case(rng) for _ in range(N_SURVEY)]
+    sat = [_satellite_case(rng) for _ in range(N_SATELLITE)]
+    r1, q1, s1 = _score(survey, f"survey ({N_SURVEY})")
+    r2, q2, s2 = _score(sat, f"satellite ({N_SATELLITE})")
+    npts = np.array([c["t"].size for c in survey])
+    nsat = np.array([c["t"].size for c in sat])
+    return "\n".join([
+        "### Period recovery (fraction of curves, %)",
+        "",
+        "| cadence | method | right (95 % Wilson) | ×2 | ×½ | ×3 | ×⅓ | window alias | imprecise | other | no period | median time (ms) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        *r1, *r2,
+        "",
+        f"Time ratio lcnav / LS nterms=1 (median per curve): survey {q1:.1f}, satellite {q2:.1f}. Survey curves have "
+        f"{npts.min()}–{npts.max()} points (median {np.median(npts):.0f}); satellite curves {nsat.min()}–{nsat.max()} (median {np.median(nsat):.0f}). "
+        "'right': |f/f_true − 1| < 1e-3 with f_true the fundamental; '×2' etc.: a harmonic or sub-harmonic; 'window alias': "
+        "f ± k/day, k/yr or k/(pass spacing); 'imprecise': the right peak, off by more than 1e-3. LombScargle always returns a "
+        "peak; lcnav returns none when no period is significant at 1 % (white or red noise) or the period has < 2 cycles.",
+        "",
+        "Right (%) by shape (number of curves):",
+        "",
+        "| cadence | method | " + " | ".join(SHAPES) + " |",
+        "|---|---|" + "---|" * len(SHAPES),
+        *s1, *s2,
+        "",
+        "Sinusoids and Cepheid-like sawtooths have one maximum per cycle, like the stars of the issue's survey test; "
+        "eclipsing and double-peaked curves have their strongest harmonic at twice the fundamental.",
+    ])
+
+
+def _false_alarm_section(rng) -> str:
+    level = 0.01
+    n_trials = 150
+    cases = {
+        "white, survey cadence (60 pts)": lambda: (lambda t: (t, rng.normal(0, 0.05, t.size), np.full(t.size, 0.05)))(survey_times(rng, 60)),
+        "white, survey cadence (200 pts)": lambda: (lambda t: (t, rng.normal(0, 0.05, t.size), np.full(t.size, 0.05)))(survey_times(rng, 200)),
+        "white, even 1 s, 600 s": lambda: (lambda t: (t, rng.normal(0, 0.02, t.size), np.full(t.size, 0.02)))(np.arange(0.0, 600.0, 1.0)),
+        "white, satellite 1 s, dropouts": lambda: (lambda t: (t, rng.normal(0, 0.02, t.size), None))(satellite_times(rng, pass_s=600.0, cadence_s=1.0)),
+        "red OU τ = 5 s, 1 s cadence, 600 s": lambda: (lambda t: (t, red_noise(rng, t, 0.02, 5.0), np.full(t.size, 0.02)))(np.arange(0.0, 600.0, 1.0)),
+        "red OU τ = 30 s, 1 s cadence, 600 s": lambda: (lambda t: (t, red_noise(rng, t, 0.02, 30.0), np.full(t.size, 0.02)))(np.arange(0.0, 600.0, 1.0)),
+        "red OU τ = 100 s, 1 s cadence, 1200 s": lambda: (lambda t: (t, red_noise(rng, t, 0.02, 100.0), None))(satellite_times(rng, pass_s=1200.0, cadence_s=1.0)),
+        "red OU τ = 2 d + white, survey (150 pts)": lambda: (lambda t: (t, red_noise(rng, t, 0.05, 2 * DAY_S) + rng.normal(0, 0.02, t.size), np.full(t.size, 0.02)))(survey_times(rng, 150)),
+    }
+    rows = []
+    for name, make in cases.items():
+        det = 0
+        for _ in range(n_trials):
+            t, y, e = make()
+            det += bool(extract_spin_prior(t, 10 + y, e, false_alarm_level=level).significant)
+        lo, hi = stats.binomtest(det, n_trials).proportion_ci(0.95, method="wilson")
+        goal = f"≤ {100 * level:.0f} %" if name.startswith("white") else "≤ 5 %"
+        rows.append(f"| {name} | {n_trials} | {det} | {100 * det / n_trials:.1f} ({100 * lo:.1f}–{100 * hi:.1f}) | {goal} |")
+    return "\n".join([
+        "### False detections on noise (false_alarm_level = 1 %)",
+        "",
+        "| noise and sampling | trials | significant | rate % (95 % Wilson) | goal |",
+        "|---|---|---|---|---|",
+        *rows,
+        "",
+        "White noise: the false-alarm probability is Baluev's (2008) upper bound for the periodogram maximum, so the "
+        "rate may fall below the level. Red noise: the periodogram is divided by the expected periodogram of an "
+        "Ornstein–Uhlenbeck + white process whose correlation is fitted (by moments) to the residuals and, for the "
+        "detection, to the data themselves (the null hypothesis), seen through the sampling window; a candidate "
+        "with < 2 cycles in the arc is refused.",
+    ])
+
+
+def _calibration_rows(z_sets) -> list[str]:
+    rows = []
+    for name, z in z_sets.items():
+        z = np.abs(np.asarray(z))
+        n = z.size
+        f1, f2 = np.mean(z < 1), np.mean(z < 2)
+        rows.append(f"| {name} | {n} | {100 * f1:.1f} | {100 * f2:.1f} | {np.median(z):.2f} |")
+    return rows
+
+
+def _calibration_section(rng) -> str:
+    z_sets: dict[str, list[float]] = {"synthetic, white noise": [], "synthetic, red noise (OU τ = 3–20 s) + white": [], "rendered Atlas-Centaur, 5 deg/s": []}
+    n_fail, n_gross = 0, 0
+    for i in range(200):
+        red = i % 2 == 1
+        pass_s = rng.uniform(300.0, 1200.0)
+        cadence = rng.uniform(0.5, 2.0)
+        t = satellite_times(rng, pass_s=pass_s, cadence_s=cadence)
+        P = rng.uniform(20.0, pass_s / 5)
+        amp = rng.uniform(0.3, 1.5)
+        sig = amp / rng.uniform(5.0, 30.0)
+        noise, err = heteroscedastic_noise(rng, t.size, sig, spread=0.2, outlier_fraction=0.0)
+        if red:
+            noise = noise + red_noise(rng, t, sig, rng.uniform(3.0, 20.0))
+        y = 8.0 + curve(("sawtooth", "double", "eclipsing")[i % 3], t / P + rng.uniform(), amp, rng) + noise
+        p = extract_spin_prior(t, y, err)
+        if not p.significant:
+            n_fail += 1
+            continue
+        if abs(p.frequency_hz - 1 / P) > 0.5 / (t[-1] - t[0]):  # another peak (alias, harmonic): a gross error, not σ's business
+            n_gross += 1
+            continue
+        z_sets["synthetic, red noise (OU τ = 3–20 s) + white" if red else "synthetic, white noise"].append((p.frequency_hz - 1 / P) / (p.rate_sigma_rad_s / (2 * np.pi)))
+    z_sets["rendered Atlas-Centaur, 5 deg/s"], gross_r = _rendered_z(rng)
+    rows = _calibration_rows(z_sets)
+    return "\n".join([
+        "### Calibration of the 1-σ: z = (estimate − truth)/σ",
+        "",
+        "| simulations | n | |z| < 1 (%) | |z| < 2 (%) | median |z| |",
+        "|---|---|---|---|---|",
+        *rows,
+        "",
+        f"Goal: |z| < 1 in 60–76 %, |z| < 2 in 90–98 %. Synthetic: one satellite pass of 300–1200 s at 0.5–2 s, sawtooth, "
+        f"double-peaked and eclipsing shapes, 20–P/5 s periods ({n_fail} of 200 gave no significant period, {n_gross} another peak "
+        f"than the true one (off by more than half a resolution element: a gross error, which no σ describes); both are left out; "
+        f"{gross_r} rendered arcs likewise). "
+        "Rendered: one noise-free Mitsuba render (Atlas-Centaur-like body, GPS-like orbit) cut into arcs of 200–1600 s with gaps and "
+        "Gaussian noise 0.01–0.1 mag; the truth is the sidereal rate, the synodic term enters σ from the Sun and observer directions.",
+    ])
+
+
+def _rendered_z(rng) -> tuple[list[float], int]:
+    from lightcurves.photometry import sample_times
+    from lightcurves.render import UnresolvedRenderer
+    from lightcurves.simulate import simulate_lightcurve
+    from lightcurves.targets import get_target
+
+    target = get_target("atlas-centaur")
+    sim = simulate_lightcurve(target, axis_T=[0, 0, 1], rate_rad_s=np.radians(5.0), duration_s=1700.0, cadence_s=0.5, rng=np.random.default_rng(3),
+                              noise=False, uneven=False, renderer=UnresolvedRenderer(target))
+    t_all, m_all = sim.lightcurve.t_s, sim.lightcurve.mag
+    s_all, o_all = sim.observation.sun_dir_I, sim.observation.observer_dir_I
+    z, gross = [], 0
+    for _ in range(60):
+        arc = rng.uniform(200.0, 1600.0)
+        sigma = np.exp(rng.uniform(np.log(0.01), np.log(0.1)))
+        start = rng.uniform(0, t_all[-1] - arc)
+        idx = np.unique(np.clip(np.searchsorted(t_all, start + sample_times(arc, 0.5, rng, jitter=0.0)), 0, t_all.size - 1))
+        p = extract_spin_prior(t_all[idx], m_all[idx] + rng.normal(0, sigma, idx.size), np.full(idx.size, sigma), sun_dir=s_all[idx], observer_dir=o_all[idx])
+        if not p.significant:
+            continue
+        if abs(p.frequency_hz - 5.0 / 360.0) > 0.5 / arc:
+            gross += 1
+            continue
+        z.append((p.rate_rad_s - np.radians(5.0)) / p.rate_sigma_rad_s)
+    return z, gross
+
+
+def run() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    env = f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}, 1-min load average {load:.1f} at start (shared machine). Seed {REPORT_SEED}."
+    rng = np.random.default_rng(REPORT_SEED)
+    parts = ["## Periods: lcnav against LombScargle on realistic cadences", "", env, "", _recovery_section(rng), "", _false_alarm_section(rng), "", _calibration_section(rng)]
+    return "\n".join(parts)
