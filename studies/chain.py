@@ -1,4 +1,4 @@
-"""Light curve → WindowCLEAN spin prior → filters: the pieces ``lcnav demo`` and the ``chain`` study share.
+"""Light curve → spin prior → filters: the pieces ``lcnav demo`` and the ``chain`` study share.
 
 The chain of Renis et al. §5–6 end to end:
 
@@ -6,7 +6,7 @@ The chain of Renis et al. §5–6 end to end:
    a scenario's target (its initial rate ``ω_T0`` about the same body axis,
    :func:`lightcurves.simulate.simulate_lightcurve`, the code path of
    ``lcnav lightcurve render``) and extracts the spin prior
-   (:func:`lightcurves.extract_spin_prior`, WindowCLEAN, §2.3);
+   (:func:`lightcurves.extract_spin_prior`, Renis et al. §2.3);
 2. the light curve gives a *rate* and its 1-σ, not an axis: the prior vector
    is ``ω_prior = rate · â`` with 1-σ ``σ_rate`` on every axis
    (:func:`estimators.prior.prior_from_rate`), where ``â`` is an **assumed**
@@ -53,7 +53,7 @@ GENERAL_TUNING = "general"
 
 @dataclass(frozen=True)
 class RenderedPrior:
-    """A rendered light curve, the prior WindowCLEAN extracted from it, and that prior as an ω vector."""
+    """A rendered light curve, the spin prior extracted from it, and that prior as an ω vector."""
 
     simulated: SimulatedLightCurve
     extracted: object  #: :class:`lightcurves.prior.SpinPrior` (rate, 1-σ, spectrum, candidates)
@@ -114,11 +114,13 @@ def render_prior(
                               renderer=renderer, meta={"scenario": scenario.name, "resolution": resolution_px, "spp": spp},
                               progress=progress)
     lc = sim.lightcurve
+    # the Sun and observer directions give the 1-σ its synodic term (the apparent rate's offset from the sidereal one)
     extracted = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None,
-                                   false_alarm_level=false_alarm_level)
+                                   false_alarm_level=false_alarm_level, sun_dir=sim.observation.sun_dir_I,
+                                   observer_dir=sim.observation.observer_dir_I)
     spin = None
     if extracted.significant:
-        spin = prior_from_rate(extracted.rate_rad_s, extracted.rate_sigma_rad_s, axis_T, source=f"light curve of {target} (WindowCLEAN)")
+        spin = prior_from_rate(extracted.rate_rad_s, extracted.rate_sigma_rad_s, axis_T, source=f"light curve of {target}")
     return RenderedPrior(sim, extracted, rate, axis_T, spin)
 
 
@@ -251,7 +253,7 @@ def plot_spectrum(rendered: RenderedPrior, path: Path) -> None:
         ax.axvline(p.strongest_frequency_hz * 1e3, color="tab:red", ls="-.", lw=1, label=f"strongest peak {p.strongest_frequency_hz * 1e3:.3f} mHz")
     hi = min(spec.frequency_hz[-1], 12 * (p.frequency_hz or f_true))
     ax.set(xlim=(0, hi * 1e3), xlabel="frequency (mHz)", ylabel="semi-amplitude (mag)",
-           title=f"WindowCLEAN: rate {np.degrees(p.rate_rad_s or np.nan):.4f}°/s (error {100 * rendered.rate_error:+.3f} %)")
+           title=f"spin prior: rate {np.degrees(p.rate_rad_s or np.nan):.4f}°/s (error {100 * rendered.rate_error:+.3f} %)")
     ax.legend(fontsize=8)
     _save(fig, path)
 

@@ -4,7 +4,7 @@
    ``lightcurves.targets.atlas_centaur``) tumbling like SC3's target — its
    initial rate ``|ω_T0|`` about its initial axis — with the code path of
    ``lcnav lightcurve render`` (:func:`studies.chain.render_prior`);
-2. extracts the spin prior with WindowCLEAN (:func:`lightcurves.extract_spin_prior`)
+2. extracts the spin prior (:func:`lightcurves.extract_spin_prior`)
    and maps it to an ω vector about an **assumed** axis (see
    :attr:`studies.chain.RenderedPrior.mapping`);
 3. runs the EKF and the UKF on SC3 (Renis et al. Table 1) without the prior
@@ -118,7 +118,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     p = rendered.extracted
     if rendered.spin is None:
         raise RuntimeError(f"the rendered light curve gave no significant period ({p.decision}); the demo needs a prior")
-    say(f"  truth rate {np.degrees(rendered.truth_rate_rad_s):.4f} °/s; WindowCLEAN: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s "
+    say(f"  truth rate {np.degrees(rendered.truth_rate_rad_s):.4f} °/s; light-curve prior: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s "
          f"(period {p.period_s:.2f} s, {p.maxima_per_rotation} maxima per rotation), error {100 * rendered.rate_error:+.3f} %")
     say(f"  {rendered.mapping}")
     w = rendered.spin.w_T_T_rad_s
@@ -174,7 +174,7 @@ def demo(
     out: Path = typer.Option(DEFAULT_OUT, "--out", help="Output folder (tables, figures, recordings).", callback=out_dir()),
     quick: bool = typer.Option(False, "--quick", help="Smaller run (shorter light curve and filter runs, 16 px renders) for tests."),
 ) -> None:
-    """The main job: light curve -> WindowCLEAN prior -> EKF/UKF on SC3 with and without it; tables, figures, recordings."""
+    """The main job: light curve -> spin prior -> EKF/UKF on SC3 with and without it; tables, figures, recordings."""
     result = run_demo(out, QUICK if quick else DemoConfig(), echo=typer.echo)
     typer.echo("")
     typer.echo(result.markdown)

@@ -128,13 +128,15 @@ def prior(
     maxima_per_rotation: int | None = typer.Option(None, help="impose the number of maxima per rotation (1 to 16)", callback=v.count(1, 16)),
     record: Path | None = typer.Option(None, help="write the light curve and spectra to a rerun recording (.rrd)", callback=v.out_file(".rrd")),
 ) -> None:
-    """Extract a spin prior (rate, 1-σ, candidates) from a light curve with WindowCLEAN."""
+    """Extract a spin prior (rate, 1-σ, candidates, warnings) from a light curve (multi-harmonic fits of the periodogram's peaks)."""
     from lightcurves import extract_spin_prior
     from lightcurves.io import read_lightcurve
 
     lc = read_lightcurve(path)
     err = lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None
-    p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation)
+    phase = lc.phase_angle_rad if np.all(np.isfinite(lc.phase_angle_rad)) else None  # a lower bound of the synodic term of the 1-σ
+    p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation,
+                           phase_angle_rad=phase)
     d = p.to_dict()
     truth = lc.meta.get("truth_rate_deg_s")
     if truth is not None:
