@@ -43,14 +43,14 @@ from typing import Protocol
 
 import numpy as np
 
-from estimators.attitude import quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import AttitudeUKF, nearest_mrp
+from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
+from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
 from estimators.combina_translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
-from estimators.symmetry import SymmetryCheck, SymmetryDetector
+from estimators.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
 from lightcurves.targets import get_target
 from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
@@ -70,6 +70,8 @@ SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
 TARGETS = tuple(K_TARGETS)
+#: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
+ROLL_WINDOW = 5
 SOURCES = ("simulated", "rendered")
 PRIORS = ("none", "init", "proxy")
 AXIS_FRAMES = ("known", "estimated")
@@ -271,11 +273,19 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         x0_a[3:6] = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)  # |error| ≈ prior_error |ω|
         prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
         P0_a[3:6, 3:6] = (cfg.prior_error * prior_rate) ** 2 / 3.0 * np.eye(3)
-    R_s = R_SCALED * LU**2 * np.eye(3)
-    R_a = R_SCALED * np.eye(3)
+    # R: the measurement model's own covariance when the source states it (the simulated BCPD);
+    # the rendered chain's noise is not modelled, so it keeps the paper's R_s = R_a = 0.01 (scaled).
+    sd_r = getattr(source, "position_sigma_m", None)
+    sd_att = getattr(source, "attitude_sigma_rad", None)
+    R_s = (sd_r**2 if sd_r else R_SCALED * LU**2) * np.eye(3)
+    R_axis = sd_att**2 if sd_att else R_SCALED
+    R_a = error_mrp_noise_covariance(sd_att) if sd_att else R_SCALED * np.eye(3)
 
     trans = TranslationalUKF(x0_s, P0_s, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS)
-    att = AttitudeUKF(x0_a, P0_a)
+    att = AttitudeUKF(x0_a, P0_a, Q=attitude_process_noise)
+    model_T = getattr(source, "model_T", None)
+    roll_test = None if model_T is None else RollSymmetryTest(model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
+    C_post_fed = quat_to_dcm(att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
     axi: AxisymmetricUKF | None = None
     C_GammaI = None
     detector = SymmetryDetector()
@@ -306,7 +316,6 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     for i in range(1, n_meas + 1):
         tic = time.perf_counter()
         ti = float(t[i])
-        w_hat_prev = att.x[3:6].copy()
         trans.predict(dt)
         if axi is None:
             att.predict(dt)
@@ -331,9 +340,12 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         if axi is None:
             att_ok = False
             if g_scale_a.accepted:
-                check = detector.add(ti, m.C_TI, w_hat_prev)
+                sd_pred = 4.0 * float(np.sqrt(np.max(np.linalg.eigvalsh(att.P[:3, :3]))))  # error MRP ≈ angle/4
+                check = detector.add(ti, m.C_TI, quat_to_dcm(att.q_IT).T @ C_post_fed.T, sd_pred)
                 if check is not None:
                     checks.append(check)
+                if roll_test is not None and m.cloud_L is not None and len(m.cloud_L) >= 10:
+                    roll_test.add(ti, cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, truth.C_LI[i].T, m.scale))
                 inn = att.innovation(m.q_IT, R_a)
                 g = mahalanobis_gate(inn, t=ti, source="attitude")
                 gates.append(g)
@@ -347,11 +359,13 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
                 proxy_updates += 1
                 var = proxy_updates * (proxy_updates + 1) * (cfg.prior_error * prior_rate) ** 2
                 att.correct(att.rate_proxy_innovation(prior_rate, var))
-            if detector.detected:
+            if g_scale_a.accepted:
+                C_post_fed = quat_to_dcm(att.q_IT).T
+            if detector.detected or (roll_test is not None and roll_test.detected):
                 switch_time = ti
                 axi, C_GammaI = _start_axisymmetric(cfg, truth, i, m, att, rng)
         elif g_scale_a.accepted:
-            inn = axi.innovation(m.C_TI[1], R_SCALED)  # §V.B: second row of C_TI = J in I
+            inn = axi.innovation(m.C_TI[1], R_axis)  # §V.B: second row of C_TI = J in I
             g = mahalanobis_gate(inn, t=ti, source="axis")  # ν = 2 here
             gates.append(g)
             if g.accepted:
@@ -414,8 +428,11 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredP
 
 
 def mrp_error(sigma_est, q_true) -> np.ndarray:
-    """``σ̂ − σ``, with the true MRP taken on the estimate's side (shadow set if closer)."""
-    return sigma_est - nearest_mrp(quat_to_mrp(q_true), sigma_est)
+    """Body-frame error MRP of the estimate, ``δσ`` with ``q̂ = q_true ⊗ q(δσ)`` (``|δσ| ≤ 1``).
+
+    The attitude filter's covariance is that of this error (:class:`estimators.combina_attitude.AttitudeUKF`).
+    """
+    return quat_to_mrp(quat_multiply(quat_conjugate(q_true), mrp_to_quat(sigma_est)))
 
 
 def component_errors(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
