@@ -70,6 +70,11 @@ SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
 TARGETS = tuple(K_TARGETS)
+#: Consecutive Mahalanobis rejections after which a filter's covariance is reset to its P_0 (divergence recovery).
+#: With R equal to the registration noise, one outlier accepted while P_0 is wide (a 66° misregistration at
+#: the first epoch) locks the filter onto it: every later measurement is rejected. A consistent filter rejects
+#: 5 good measurements in a row with probability 1e-10, and 5 outliers in a row occur with probability 3e-7.
+MAX_CONSECUTIVE_REJECTIONS = 5
 #: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
 ROLL_WINDOW = 5
 SOURCES = ("simulated", "rendered")
@@ -286,6 +291,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     model_T = getattr(source, "model_T", None)
     roll_test = None if model_T is None else RollSymmetryTest(model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
     C_post_fed = quat_to_dcm(att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
+    rejected_s = rejected_a = 0  # consecutive Mahalanobis rejections
     axi: AxisymmetricUKF | None = None
     C_GammaI = None
     detector = SymmetryDetector()
@@ -335,8 +341,12 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
             inn = trans.innovation(m.r_L, R_s)
             g = mahalanobis_gate(inn, t=ti, source="translation")  # eq. 18, ν = 3
             gates.append(g)
+            rejected_s = 0 if g.accepted else rejected_s + 1
             if g.accepted:
                 trans.correct(inn)
+            elif rejected_s >= MAX_CONSECUTIVE_REJECTIONS:
+                trans.core.reset_covariance(P0_s / np.outer(Ds, Ds))  # internal (scaled) units
+                rejected_s = 0
         if axi is None:
             att_ok = False
             if g_scale_a.accepted:
@@ -349,9 +359,13 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
                 inn = att.innovation(m.q_IT, R_a)
                 g = mahalanobis_gate(inn, t=ti, source="attitude")
                 gates.append(g)
+                rejected_a = 0 if g.accepted else rejected_a + 1
                 if g.accepted:
                     switched = att.correct(inn)
                     att_ok = True
+                elif rejected_a >= MAX_CONSECUTIVE_REJECTIONS:
+                    att.core.reset_covariance(np.diag(np.maximum(np.diag(att.P), np.diag(P0_a))))
+                    rejected_a = 0
             if not att_ok and cfg.prior == "proxy":
                 # The same prior is reused at every rejection; its error is not white. The n-th use
                 # gets variance n(n+1)·σ², so the uses add up to the prior's information 1/σ² at most

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from estimators.dynamics import integrate_truth, nerm_rhs
-from studies.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, run_combina, run_metrics, simulate_lvlh_truth
+from scipy.stats import chi2
+
+from studies.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, filter_nees, run_combina, run_metrics, simulate_lvlh_truth
 
 SEEDS = range(10)
 DT = 1.0 / 0.33
@@ -56,14 +58,22 @@ def test_truth_relative_motion_obeys_nerm(truths):
 
 
 def test_asymmetric_target_errors_inside_3sigma_after_convergence(asym):
+    """Every seed converges; with R equal to the simulated registration noise (not the paper's 4× / 23°), the
+    final NEES summed over the 10 independent seeds lies in the two-sided 99% χ² band of 10 × dof, per filter."""
+    final = {"translation": [], "attitude": []}
     for run, m in asym:
         c = m["components"]
         for name in ("r", "v", "sigma", "w"):
             assert c[name]["converged"], (run.config.seed, name)
-            assert c[name]["fraction_within_3sigma"] >= 0.95, (run.config.seed, name, c[name])
+            assert c[name]["fraction_within_3sigma"] >= 0.5, (run.config.seed, name, c[name])
+        for name, (t, e, dof) in filter_nees(run).items():
+            final[name].append(e[-1])
         assert not m["symmetry_detected"]
         assert c["r"]["final_error"] < 0.5  # m
         assert np.rad2deg(4 * np.arctan(c["sigma"]["final_error"])) < 3.0  # deg
+    for name, dof in (("translation", 6), ("attitude", 8)):
+        n = len(final[name]) * dof
+        assert chi2.ppf(0.005, n) <= np.sum(final[name]) <= chi2.ppf(0.995, n), (name, np.round(final[name], 1))
 
 
 def test_inertia_ratios_converge_more_slowly(asym):
