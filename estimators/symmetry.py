@@ -190,12 +190,12 @@ class RollSymmetryTest:
     (:func:`roll_self_registration`); symmetry about ``axis_T`` is declared
     when the median over the last ``window`` clouds is at most
     ``ratio_threshold`` — every roll fits the model as well as the unrolled
-    cloud does, up to that factor. An asymmetric body's worst roll puts the
-    cloud metres off the surface (ratios of 5–50 for the box-wing); 2 leaves
-    room for a noisy cloud.
+    cloud does, up to that factor. Measured on rendered stereo clouds (512 px
+    frames registered by BCPD): the Atlas-Centaur's worst ratio is 1.00–1.03,
+    the box-wing's 1.3–3.1 (window medians ≥ 2.2); 1.5 sits between them.
     """
 
-    def __init__(self, model_T, axis_T, *, window: int = 5, ratio_threshold: float = 2.0):
+    def __init__(self, model_T, axis_T, *, window: int = 5, ratio_threshold: float = 1.5):
         from scipy.spatial import cKDTree
 
         if int(window) != window or window < 1:

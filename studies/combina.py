@@ -5,9 +5,23 @@ mass starts at ``r(0) = [2, 0, 0.2] LU``, ``v(0) = [0, −4, 0] LU/TU`` in the
 chaser's LVLH frame (eq. 46, an inclined football orbit, 24–48 m, ≈ 37 m on
 average), with the attitude of eq. 47 (``σ_T(0)``, ``ω_T(0)`` in rad/TU, ``k``).
 Scaled units: ``TU = 963.65 s`` (the paper's ``1/n``), ``LU = 12 m``. Filter
-tuning: ``P_0 = 0.1 I`` (eq. 48) and ``R_s = R_a = 0.01 I`` in scaled units;
-the initial estimates are drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in
-position).
+tuning: ``P_0 = 0.1 I`` (eq. 48) in scaled units; the initial estimates are
+drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in position). ``R`` is the
+measurement model's own covariance when the source states it (the simulated
+BCPD: 0.3 m per axis, 2° per axis, i.e. ``R_a = (2°/4)² I`` on the error MRP);
+the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
+4× and 11× the simulated noise) is kept only for the rendered chain, whose
+noise is not modelled. Attitude process noise:
+:func:`estimators.combina_attitude.attitude_process_noise`. A filter that
+rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
+covariance reset to ``P_0`` (divergence recovery).
+
+Symmetry: the temporal test of §IV.C (:class:`estimators.symmetry.SymmetryDetector`,
+fed the filter's integrated relative-rotation prediction and its uncertainty)
+on every source; on the rendered chain also the geometric roll test
+(:class:`estimators.symmetry.RollSymmetryTest` over ``ROLL_WINDOW`` clouds),
+because a registration seeded by the prediction echoes the filter's roll and
+hides the symmetry from the temporal test.
 
 The scenario is ``studies.scenarios``' ``COMBINA``; truth is its two absolute
 integrations (:func:`studies.truth.simulate_truth`, DOP853 at 1e-12), chaser
@@ -233,6 +247,7 @@ class CombinaRun:
     proxy_updates: int = 0
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
+    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
 
 
 def _nan(n):
@@ -292,6 +307,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     roll_test = None if model_T is None else RollSymmetryTest(model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
     C_post_fed = quat_to_dcm(att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
     rejected_s = rejected_a = 0  # consecutive Mahalanobis rejections
+    roll_ratios: list[tuple[float, float]] = []
     axi: AxisymmetricUKF | None = None
     C_GammaI = None
     detector = SymmetryDetector()
@@ -355,7 +371,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
                 if check is not None:
                     checks.append(check)
                 if roll_test is not None and m.cloud_L is not None and len(m.cloud_L) >= 10:
-                    roll_test.add(ti, cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, truth.C_LI[i].T, m.scale))
+                    roll_ratios.append((ti, roll_test.add(ti, cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, truth.C_LI[i].T, m.scale))))
                 inn = att.innovation(m.q_IT, R_a)
                 g = mahalanobis_gate(inn, t=ti, source="attitude")
                 gates.append(g)
@@ -387,7 +403,8 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None))
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None),
+                      roll_ratios=np.array(roll_ratios).reshape(-1, 2))
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
@@ -561,6 +578,7 @@ def run_metrics(run: CombinaRun) -> dict:
         "units": {"TU_s": TU, "LU_m": LU, "note": "errors in SI: m, m/s, MRP, rad/s, 1, rad, rad/s"},
         "mode": run.steps[-1].mode,
         "symmetry_detected": run.switch_time_s is not None,
+        "roll_ratio_median": float(np.median(run.roll_ratios[:, 1])) if len(run.roll_ratios) else None,
         "switch_time_s": run.switch_time_s,
         "components": comps,
         "gate_counts": counts,
