@@ -190,9 +190,10 @@ class RollSymmetryTest:
     (:func:`roll_self_registration`); symmetry about ``axis_T`` is declared
     when the median over the last ``window`` clouds is at most
     ``ratio_threshold`` — every roll fits the model as well as the unrolled
-    cloud does, up to that factor. Measured on rendered stereo clouds (512 px
-    frames registered by BCPD): the Atlas-Centaur's worst ratio is 1.00–1.03,
-    the box-wing's 1.3–3.1 (window medians ≥ 2.2); 1.5 sits between them.
+    cloud does, up to that factor. Measured on rendered stereo clouds
+    registered by BCPD: the Atlas-Centaur's worst ratio is 1.00–1.03 (256 and
+    512 px frames); the box-wing's 3.8–4.4 on 512 px frames and 1.3–3.1 on
+    the 256 px frames of ``--quick`` (window medians ≥ 2.2); 1.5 sits between.
     """
 
     def __init__(self, model_T, axis_T, *, window: int = 5, ratio_threshold: float = 1.5):

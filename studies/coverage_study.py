@@ -134,7 +134,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         conv = sub["converged"].astype(bool)
         iv = proportion_interval(int(conv.sum()), len(sub), conf)
         rows.append({
-            "|ω| (rad/s)": w, "rotation per measurement (deg)": float(sub["rotation_per_measurement_deg"].iloc[0]),
+            "tumbling rate (rad/s)": w, "rotation per measurement (deg)": float(sub["rotation_per_measurement_deg"].iloc[0]),
             "runs": len(sub), "converged runs": int(conv.sum()), "converged": iv.estimate, f"{pct}% lo": iv.lo, f"{pct}% hi": iv.hi,
             "translation passed": float(sub["translation_ok"].astype(bool).mean()), "attitude passed": float(sub["attitude_ok"].astype(bool).mean()),
             "diverged": int(sub["diverged"].astype(bool).sum()), "false symmetry switches": int(sub["symmetry_detected"].astype(bool).sum()),
@@ -168,7 +168,7 @@ def plot_coverage(summary: pd.DataFrame, pct: int, path: Path) -> None:
     ax.errorbar(x, 100 * frac, yerr=100 * err, fmt="none", ecolor="k", capsize=3, label=f"Wilson {pct}% interval")
     for xi, (n, k) in enumerate(zip(summary["runs"], summary["converged runs"])):
         ax.text(xi, 102, f"{k}/{n}", ha="center", fontsize=7, color="tab:red")
-    ax.set(xticks=x, xticklabels=[f"{w:g}" for w in summary["|ω| (rad/s)"]], xlabel="tumbling rate |ω| (rad/s)", ylabel="converged (%)",
+    ax.set(xticks=x, xticklabels=[f"{w:g}" for w in summary["tumbling rate (rad/s)"]], xlabel="tumbling rate |ω| (rad/s)", ylabel="converged (%)",
            ylim=(0, 112), title="CoMBiNa coverage against tumbling rate (000 Fig. 20 analogue)")
     ax.legend(fontsize=7, loc="lower left")
     with atomic_path(path) as tmp:
