@@ -119,7 +119,7 @@ class AttitudeUKF:
         (e.g. :func:`attitude_process_noise`).
     """
 
-    def __init__(self, x0, P0, *, max_step_s: float = 0.25, max_angle_rad: float = 0.1, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (8,):
             raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")
