@@ -73,7 +73,7 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
             base = base or full
             rows.append((workers, len(res.runs), f"{wall:.0f}", f"{res.runs['elapsed_s'].sum() / wall:.2f}",
                          f"{full / 60:.0f}", f"{base / full:.2f}×"))
-            per_level = res.runs.groupby("rate_level_hz")["elapsed_s"].median()
+            per_level = res.runs.groupby("rate_level_rad_s")["elapsed_s"].median()
     lines = [
         "## Coverage study (`lcnav study coverage`, Maestrini et al. Fig. 20): full-size wall time from a measured fraction",
         "",
@@ -86,7 +86,7 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
     ]
     lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
     lines += ["", "Median run time per rate level (s, 2 workers): "
-              + ", ".join(f"{f:g} Hz {v:.1f}" for f, v in per_level.items())
+              + ", ".join(f"{w:g} rad/s {v:.1f}" for w, v in per_level.items())
               + ". The truth (DOP853 at 1e-12 of the target's attitude) grows with the tumbling rate and dominates the fast levels.",
               f"1-min load average at the end: {os.getloadavg()[0]:.1f} (2 cores shared with other work)."]
     return "\n".join(lines)

@@ -4,22 +4,39 @@ State ``x_a = [σ_IT, ω_T, k1, k2]`` (8): the MRP of the target's attitude
 ``q_IT`` (target frame T to inertial I; the paper's ``σ_T`` of ``C_TI``, see
 :func:`estimators.attitude.dcm_to_mrp`), the target's angular velocity in its
 own principal axes (rad/s), and the inertia ratios ``k1 = ln(A/B)``,
-``k2 = ln(B/C)`` (eqs 26–27). Process model: MRP kinematics (eq. 28,
-:func:`estimators.attitude.mrp_derivative`) and torque-free Euler equations
-(eq. 29) with ``k̇ = 0``; measurement: the MRP (eq. 30).
+``k2 = ln(B/C)`` (eqs 26–27). Process model: the attitude kinematics of
+eq. 28 (integrated in quaternion form, see below) and torque-free Euler
+equations (eq. 29) with ``k̇ = 0`` plus process noise; measurement: the
+attitude (eq. 30, as an error MRP).
 
-Two details the paper leaves implicit:
+How the attitude is carried (the paper's global MRP fails on fast tumblers):
 
-* **MRP wrap in the innovation.** A measured attitude has two MRPs, ``σ`` and
-  its shadow ``−σ/|σ|²``. Near ``|σ| = 1`` the predicted estimate and the
-  measurement's ``|σ| ≤ 1`` set can sit on opposite sides, and their
-  difference would then be a spurious ~360° error. Eq. 30 is linear, so the
-  predicted measurement equals the predicted MRP; the measurement is
-  expressed in whichever of its two sets lies closer to it before eq. 23.
-* **Shadow switch** (eqs 31–32): after every correction with ``|σ| > 1`` the
-  estimate moves to the shadow set and ``P`` is transformed by the Jacobian
-  (:func:`estimators.attitude.mrp_shadow_covariance`). The attitude itself is
-  unchanged (same rotation), so the attitude error is continuous across it.
+* **Error-MRP sigma points** (the USQUE of Crassidis & Markley, 2003). The
+  estimate keeps a reference attitude ``q̂_IT``; the first three states are
+  the body-frame *error* MRP ``δσ`` with ``q_IT = q̂_IT ⊗ q(δσ)``, zero after
+  every reset, and ``P``'s first block is its covariance (``δσ ≈ δθ/4``).
+  Each sigma point's attitude is ``q̂ ⊗ q(δσ_i)``, propagated as a quaternion
+  (eq. 28's kinematics in quaternion form, no singularity at 360°), and
+  turned back into an error MRP relative to the propagated central point.
+  The canonical error MRP (``|δσ| ≤ 1``, :func:`estimators.attitude.quat_to_mrp`)
+  *is* the shadow-set choice of eqs 31–32, made per sigma point: no point is
+  ever carried across the ``|σ| = 1`` boundary, and the points of eqs 12–13
+  are averaged in one chart whatever the attitude. A fast target turns by
+  more than π between two measurements (1.5 rad/s × 3 s = 258°); the global
+  MRP of the sigma points then straddled the singularity and the mean and
+  covariance of eqs 12–13 were meaningless.
+* The reported ``x[:3]`` is the global MRP of ``q̂_IT`` (``|σ| ≤ 1``);
+  :meth:`AttitudeUKF.correct` reports a shadow switch when that MRP crossed
+  ``|σ| = 1`` (``q̂``'s scalar part changed sign), the event eqs 31–32 handle.
+* **Integration step.** RK4 with a step of at most ``max_step_s`` *and* at
+  most ``max_angle_rad`` of rotation at the sigma points' largest rate
+  (0.1 rad by default: about 1e-5 rad of attitude error after 100 predictions of 3 s at 1.2 rad/s, ``tests/estimators/test_combina_attitude.py``). The paper-era setting, one RK4 step per 3 s
+  prediction, loses the attitude above ~0.3 rad/s.
+* **Process noise** (the paper has ``Q = 0``): ``Q`` per prediction, e.g.
+  :func:`attitude_process_noise` (see there).
+* **Measurement.** Eq. 30 becomes ``z = δσ_meas``, the error MRP of the
+  measured attitude relative to ``q̂``; its noise is the registration's
+  body-frame rotation error over 4 (:func:`error_mrp_noise_covariance`).
 
 Spin priors (``002_…`` §6, used by the studies): ``ω_0`` and its ``P_0`` block
 are simply the constructor's arguments; :meth:`rate_proxy_innovation` builds
@@ -30,7 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators.attitude import mrp_derivative, mrp_shadow, mrp_shadow_covariance, mrp_to_quat, quat_to_mrp
+from estimators.attitude import mrp_to_quat, quat_conjugate, quat_derivative, quat_multiply, quat_normalize, quat_to_mrp
 from estimators.combina_unscented import Innovation, UnscentedCore
 from estimators.dynamics import euler_rhs
 
@@ -38,85 +55,152 @@ from estimators.dynamics import euler_rhs
 SIGMA, OMEGA, K = slice(0, 3), slice(3, 6), slice(6, 8)
 
 
-def attitude_rhs(x: np.ndarray) -> np.ndarray:
-    """``ẋ_a`` of eqs 28–29 with ``k̇ = 0`` for a batch ``(..., 8)``."""
-    x = np.asarray(x, dtype=float)
-    w = x[..., OMEGA]
-    J = np.stack([np.exp(x[..., 6]), np.ones_like(x[..., 6]), np.exp(-x[..., 7])], axis=-1)  # eq. 27
-    return np.concatenate([mrp_derivative(x[..., SIGMA], w), euler_rhs(w, J), np.zeros_like(x[..., K])], axis=-1)
+def attitude_process_noise(dt_s: float, *, torque_accel_rad_s2: float = 1e-7, k_rate_per_s: float = 1e-4) -> np.ndarray:
+    """``Q`` (8×8) of one prediction over ``dt_s``: random-walk noise on ``ω`` and ``k``.
+
+    * ``ω``: an unmodelled body torque (solar pressure, gravity gradient,
+      residual outgassing) of ``J``-normalised size ``torque_accel_rad_s2`` —
+      1e-7 rad/s² is the gravity-gradient acceleration ``3 n² ΔJ/J`` of a
+      strongly asymmetric body at 800 km (``n = 1.04e-3`` rad/s,
+      ``ΔJ/J ≈ 0.03``) — acting as white noise: ``Q_ω = a² Δt² I`` per
+      step (rad²/s²), and a matching ``Q_σ`` term ``(a Δt²/4)² I`` for the
+      attitude it integrates into (MRP ≈ angle/4);
+    * ``k``: the ratios are constant for a rigid body, but the filter would
+      otherwise drive their variance to zero while the torque-free model
+      (eq. 29) is only an approximation; a random walk of
+      ``k_rate_per_s`` (1/√s) keeps them adjustable: ``Q_k = k_rate² Δt I``.
+      With 1e-4, a 3 s step adds 3e-8, i.e. a 1-σ wander of 0.008 over an
+      orbit (5,800 s) — far below the 0.1 tolerance of the studies; 1e-5
+      left k's final NEES over 10 seeds above its χ² band
+      (``tests/studies/test_combina.py``).
+    """
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
+    a, qk = float(torque_accel_rad_s2), float(k_rate_per_s)
+    return np.diag([(a * dt_s**2 / 4.0) ** 2] * 3 + [(a * dt_s) ** 2] * 3 + [qk**2 * dt_s] * 2)
 
 
-def nearest_mrp(sigma, reference) -> np.ndarray:
-    """The one of ``σ`` and its shadow set that lies closer to ``reference`` (same rotation)."""
-    s = np.asarray(sigma, dtype=float)
-    ref = np.asarray(reference, dtype=float)
-    if np.dot(s, s) == 0.0:
-        return s.copy()
-    sh = mrp_shadow(s)
-    return sh if np.linalg.norm(sh - ref) < np.linalg.norm(s - ref) else s.copy()
+def error_mrp_noise_covariance(attitude_sigma_rad: float) -> np.ndarray:
+    """``R`` (3×3, MRP²) of a measured error MRP whose attitude error is a body-frame rotation ``N(0, s² I)``.
+
+    ``δσ = tan(θ/4) e ≈ δθ/4``, so ``R = (s/4)² I``. (The paper's constant
+    ``R_a = 0.01`` on the global MRP is a 23° 1-σ attitude error.)
+    """
+    s = float(attitude_sigma_rad)
+    if not (np.isfinite(s) and s > 0):
+        raise ValueError(f"attitude_sigma_rad must be positive and finite, got {attitude_sigma_rad!r}")
+    return (s / 4.0) ** 2 * np.eye(3)
+
+
+def attitude_rhs_quat(x: np.ndarray) -> np.ndarray:
+    """``ẋ`` of ``[q_IT (4), ω_T (3), k (2)]`` for a batch ``(..., 9)``: eq. 28 in quaternion form, eq. 29, ``k̇ = 0``."""
+    w = x[..., 4:7]
+    J = np.stack([np.exp(x[..., 7]), np.ones_like(x[..., 7]), np.exp(-x[..., 8])], axis=-1)  # eq. 27
+    return np.concatenate([quat_derivative(x[..., :4], w), euler_rhs(w, J), np.zeros_like(x[..., 7:9])], axis=-1)
 
 
 class AttitudeUKF:
-    """UKF on ``[σ_IT, ω_T (rad/s), k1, k2]`` (eqs 28–32 of ``000_…``), SI units.
+    """UKF on ``[δσ, ω_T (rad/s), k1, k2]`` about a reference ``q̂_IT`` (eqs 28–32 of ``000_…``), SI units.
 
     Parameters
     ----------
     x0 : (8,)
-        initial estimate; ``|σ| ≤ 1`` is not required.
+        initial estimate ``[σ_IT, ω_T, k1, k2]`` (global MRP, any set).
     P0 : (8, 8)
-        its covariance (MRP², rad²/s², 1).
+        its covariance; the MRP block is read as the error MRP's (the two
+        agree to first order at ``σ = 0`` and differ by ``(1 + |σ|²)²/16``
+        in general; a body-frame attitude error of ``θ`` rad is ``θ/4``).
     max_step_s : float
         longest RK4 step of the propagation.
-    Q : (8, 8), optional
-        additive process noise per prediction.
+    max_angle_rad : float
+        largest rotation per RK4 step at the sigma points' fastest rate.
+    Q : (8, 8) or callable, optional
+        additive process noise per prediction, or ``Q(dt_s)``
+        (e.g. :func:`attitude_process_noise`).
     """
 
-    def __init__(self, x0, P0, *, max_step_s: float = 5.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
-        if np.asarray(x0).shape != (8,):
-            raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {np.asarray(x0).shape}")
-        if not (np.isfinite(max_step_s) and max_step_s > 0):
-            raise ValueError(f"max_step_s must be positive and finite, got {max_step_s!r}")
-        self.core = UnscentedCore(x0, P0, alpha=alpha, beta=beta, kappa=kappa)
+    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+        x0 = np.asarray(x0, dtype=float)
+        if x0.shape != (8,):
+            raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")
+        for name, v in (("max_step_s", max_step_s), ("max_angle_rad", max_angle_rad)):
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be positive and finite, got {v!r}")
+        self.q_ref = _canonical_quat(mrp_to_quat(x0[SIGMA]))
+        xe = x0.copy()
+        xe[SIGMA] = 0.0
+        self.core = UnscentedCore(xe, P0, alpha=alpha, beta=beta, kappa=kappa)
         self.max_step_s = float(max_step_s)
-        self.Q = None if Q is None else np.asarray(Q, dtype=float)
+        self.max_angle_rad = float(max_angle_rad)
+        self.Q = Q if (Q is None or callable(Q)) else np.asarray(Q, dtype=float)
         self.n_shadow_switches = 0
 
     @property
     def x(self) -> np.ndarray:
-        return self.core.x
+        """``[σ_IT (global MRP, |σ| ≤ 1), ω_T, k1, k2]``."""
+        x = self.core.x.copy()
+        x[SIGMA] = quat_to_mrp(self.q_IT)
+        return x
 
     @property
     def P(self) -> np.ndarray:
+        """Covariance of ``[δσ, ω_T, k]`` (the error MRP in the first block)."""
         return self.core.P
 
     @property
     def q_IT(self) -> np.ndarray:
         """Estimated attitude as a scalar-first quaternion (T to I)."""
-        return mrp_to_quat(self.core.x[SIGMA])
+        return _canonical_quat(quat_multiply(self.q_ref, mrp_to_quat(self.core.x[SIGMA])))
+
+    def error_mrp(self, q_IT) -> np.ndarray:
+        """``δσ`` with ``q_IT = q̂_IT ⊗ q(δσ)`` (``|δσ| ≤ 1``) — also the filter's attitude error convention."""
+        return quat_to_mrp(quat_multiply(quat_conjugate(self.q_ref), q_IT))
 
     def _propagate(self, X: np.ndarray, dt: float) -> np.ndarray:
-        n_sub = max(1, int(np.ceil(dt / self.max_step_s)))
+        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → propagated, as error MRPs about the propagated central point.
+
+        Sets ``q_ref`` to the propagated central point's attitude.
+        """
+        Y = np.concatenate([quat_multiply(self.q_ref, mrp_to_quat(X[:, SIGMA])), X[:, 3:]], axis=1)
+        w_max = float(np.max(np.linalg.norm(X[:, OMEGA], axis=1)))
+        # a diverged filter's absurd rate must not stall the loop: at most 200 steps
+        n_sub = min(max(1, int(np.ceil(dt / self.max_step_s)), int(np.ceil(w_max * dt / self.max_angle_rad))), 200)
         h = dt / n_sub
         for _ in range(n_sub):
-            k1 = attitude_rhs(X)
-            k2 = attitude_rhs(X + 0.5 * h * k1)
-            k3 = attitude_rhs(X + 0.5 * h * k2)
-            k4 = attitude_rhs(X + h * k3)
-            X = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        return X
+            k1 = attitude_rhs_quat(Y)
+            k2 = attitude_rhs_quat(Y + 0.5 * h * k1)
+            k3 = attitude_rhs_quat(Y + 0.5 * h * k2)
+            k4 = attitude_rhs_quat(Y + h * k3)
+            Y = Y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            Y[:, :4] = quat_normalize(Y[:, :4])
+        self.q_ref = _canonical_quat(Y[0, :4])
+        return np.concatenate([self.error_mrp(Y[:, :4]), Y[:, 4:]], axis=1)  # canonical: the shadow choice per point
+
+    def _reset(self) -> bool:
+        """Move the error MRP into ``q_ref`` (``δσ = 0``), redraw the sigma points; True if the global MRP changed set (eqs 31–32's event)."""
+        q = quat_multiply(self.q_ref, mrp_to_quat(self.core.x[SIGMA]))
+        switched = bool(q[0] < 0.0)
+        self.q_ref = _canonical_quat(q)
+        x = self.core.x.copy()
+        x[SIGMA] = 0.0
+        self.core.x = x
+        self.core.sigmas = self.core.points.sigma_points(self.core.x, self.core.P)
+        self.n_shadow_switches += int(switched)
+        return switched
 
     def predict(self, dt_s: float) -> None:
         """Eqs 10–13 with the process model of eqs 28–29 over ``dt_s`` seconds."""
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
-        self.core.predict(lambda X: self._propagate(X, dt_s), Q=self.Q)
+        Q = self.Q(dt_s) if callable(self.Q) else self.Q
+        self.core.predict(lambda X: self._propagate(X, dt_s), Q=Q)
+        # the mean error MRP moves into q̂ and the sigma points of eqs 14–17 are redrawn about it from P,
+        # so that P, S and P_xz describe the same set of points
+        self._reset()
 
     def innovation(self, q_IT_meas, R) -> Innovation:
-        """Eqs 30, 15–17, 23 for a measured attitude (quaternion T to I) with MRP covariance ``R`` (3×3).
-
-        The measured MRP is taken on the predicted set's side (see the module docstring).
-        """
-        z = nearest_mrp(quat_to_mrp(q_IT_meas), self.core.x[SIGMA])
+        """Eqs 30, 15–17, 23 for a measured attitude (quaternion T to I) with error-MRP covariance ``R`` (3×3)."""
+        z = self.error_mrp(np.asarray(q_IT_meas, dtype=float))
         return self.core.innovation(z, R, lambda X: X[:, SIGMA])  # eq. 30
 
     def rate_proxy_innovation(self, rate_rad_s: float, var_rad2_s2: float) -> Innovation:
@@ -126,23 +210,15 @@ class AttitudeUKF:
         return self.core.innovation([rate_rad_s], [[var_rad2_s2]], lambda X: np.linalg.norm(X[:, OMEGA], axis=1, keepdims=True))
 
     def correct(self, inn: Innovation) -> bool:
-        """Eqs 21–22, 24, then the shadow-set switch of eqs 31–32 if ``|σ| > 1``.
+        """Eqs 21–22, 24, then the reset of the error MRP into ``q̂``.
 
-        Returns whether the switch happened.
+        Returns whether the global MRP switched to its shadow set (eqs 31–32's event).
         """
         self.core.correct(inn)
-        return self.switch_to_shadow_if_needed()
+        return self._reset()
 
-    def switch_to_shadow_if_needed(self) -> bool:
-        """Eqs 31–32: move ``σ`` with ``|σ| > 1`` to its shadow set, transforming ``P``."""
-        s = self.core.x[SIGMA]
-        if float(np.dot(s, s)) <= 1.0:
-            return False
-        sigma_s, P_s = mrp_shadow_covariance(s, self.core.P, n_mrp=0)
-        x = self.core.x.copy()
-        x[SIGMA] = sigma_s
-        self.core.x = x
-        self.core.P = 0.5 * (P_s + P_s.T)
-        self.core.sigmas = self.core.points.sigma_points(self.core.x, self.core.P)
-        self.n_shadow_switches += 1
-        return True
+
+def _canonical_quat(q) -> np.ndarray:
+    """``q`` with ``q0 ≥ 0``."""
+    q = np.asarray(q, dtype=float)
+    return -q if q[0] < 0.0 else q.copy()

@@ -107,6 +107,14 @@ class UnscentedCore:
         y = sub(z, z_pred)  # eq. 23
         return Innovation(z=z, z_pred=z_pred, y=y, S=0.5 * (S + S.T), P_xz=P_xz)
 
+    def reset_covariance(self, P) -> None:
+        """Replace ``P`` (symmetric positive definite) keeping the mean, and redraw the sigma points about it."""
+        P = np.asarray(P, dtype=float)
+        if P.shape != self.P.shape or not np.allclose(P, P.T) or np.min(np.linalg.eigvalsh(P)) <= 0.0:
+            raise ValueError(f"P must be a symmetric positive definite {self.P.shape} matrix")
+        self.P = P.copy()
+        self.sigmas = self.points.sigma_points(self.x, self.P)
+
     def correct(self, inn: Innovation) -> None:
         """Eqs 21, 22 and 24: ``K = P_xz S⁻¹``, ``x += K y``, ``P −= K S Kᵀ``."""
         K = np.linalg.solve(inn.S, inn.P_xz.T).T  # eq. 24 (S symmetric)

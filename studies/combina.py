@@ -5,9 +5,23 @@ mass starts at ``r(0) = [2, 0, 0.2] LU``, ``v(0) = [0, −4, 0] LU/TU`` in the
 chaser's LVLH frame (eq. 46, an inclined football orbit, 24–48 m, ≈ 37 m on
 average), with the attitude of eq. 47 (``σ_T(0)``, ``ω_T(0)`` in rad/TU, ``k``).
 Scaled units: ``TU = 963.65 s`` (the paper's ``1/n``), ``LU = 12 m``. Filter
-tuning: ``P_0 = 0.1 I`` (eq. 48) and ``R_s = R_a = 0.01 I`` in scaled units;
-the initial estimates are drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in
-position).
+tuning: ``P_0 = 0.1 I`` (eq. 48) in scaled units; the initial estimates are
+drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in position). ``R`` is the
+measurement model's own covariance when the source states it (the simulated
+BCPD: 0.3 m per axis, 2° per axis, i.e. ``R_a = (2°/4)² I`` on the error MRP);
+the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
+4× and 11× the simulated noise) is kept only for the rendered chain, whose
+noise is not modelled. Attitude process noise:
+:func:`estimators.combina_attitude.attitude_process_noise`. A filter that
+rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
+covariance reset to ``P_0`` (divergence recovery).
+
+Symmetry: the temporal test of §IV.C (:class:`estimators.symmetry.SymmetryDetector`,
+fed the filter's integrated relative-rotation prediction and its uncertainty)
+on every source; on the rendered chain also the geometric roll test
+(:class:`estimators.symmetry.RollSymmetryTest` over ``ROLL_WINDOW`` clouds),
+because a registration seeded by the prediction echoes the filter's roll and
+hides the symmetry from the temporal test.
 
 The scenario is ``studies.scenarios``' ``COMBINA``; truth is its two absolute
 integrations (:func:`studies.truth.simulate_truth`, DOP853 at 1e-12), chaser
@@ -43,14 +57,14 @@ from typing import Protocol
 
 import numpy as np
 
-from estimators.attitude import quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import AttitudeUKF, nearest_mrp
+from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
+from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
 from estimators.combina_translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
-from estimators.symmetry import SymmetryCheck, SymmetryDetector
+from estimators.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
 from lightcurves.targets import get_target
 from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
@@ -70,6 +84,13 @@ SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
 TARGETS = tuple(K_TARGETS)
+#: Consecutive Mahalanobis rejections after which a filter's covariance is reset to its P_0 (divergence recovery).
+#: With R equal to the registration noise, one outlier accepted while P_0 is wide (a 66° misregistration at
+#: the first epoch) locks the filter onto it: every later measurement is rejected. A consistent filter rejects
+#: 5 good measurements in a row with probability 1e-10, and 5 outliers in a row occur with probability 3e-7.
+MAX_CONSECUTIVE_REJECTIONS = 5
+#: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
+ROLL_WINDOW = 5
 SOURCES = ("simulated", "rendered")
 PRIORS = ("none", "init", "proxy")
 AXIS_FRAMES = ("known", "estimated")
@@ -226,6 +247,7 @@ class CombinaRun:
     proxy_updates: int = 0
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
+    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
 
 
 def _nan(n):
@@ -271,11 +293,21 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         x0_a[3:6] = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)  # |error| ≈ prior_error |ω|
         prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
         P0_a[3:6, 3:6] = (cfg.prior_error * prior_rate) ** 2 / 3.0 * np.eye(3)
-    R_s = R_SCALED * LU**2 * np.eye(3)
-    R_a = R_SCALED * np.eye(3)
+    # R: the measurement model's own covariance when the source states it (the simulated BCPD);
+    # the rendered chain's noise is not modelled, so it keeps the paper's R_s = R_a = 0.01 (scaled).
+    sd_r = getattr(source, "position_sigma_m", None)
+    sd_att = getattr(source, "attitude_sigma_rad", None)
+    R_s = (sd_r**2 if sd_r else R_SCALED * LU**2) * np.eye(3)
+    R_axis = sd_att**2 if sd_att else R_SCALED
+    R_a = error_mrp_noise_covariance(sd_att) if sd_att else R_SCALED * np.eye(3)
 
     trans = TranslationalUKF(x0_s, P0_s, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS)
-    att = AttitudeUKF(x0_a, P0_a)
+    att = AttitudeUKF(x0_a, P0_a, Q=attitude_process_noise)
+    model_T = getattr(source, "model_T", None)
+    roll_test = None if model_T is None else RollSymmetryTest(model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
+    C_post_fed = quat_to_dcm(att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
+    rejected_s = rejected_a = 0  # consecutive Mahalanobis rejections
+    roll_ratios: list[tuple[float, float]] = []
     axi: AxisymmetricUKF | None = None
     C_GammaI = None
     detector = SymmetryDetector()
@@ -306,7 +338,6 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     for i in range(1, n_meas + 1):
         tic = time.perf_counter()
         ti = float(t[i])
-        w_hat_prev = att.x[3:6].copy()
         trans.predict(dt)
         if axi is None:
             att.predict(dt)
@@ -326,20 +357,31 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
             inn = trans.innovation(m.r_L, R_s)
             g = mahalanobis_gate(inn, t=ti, source="translation")  # eq. 18, ν = 3
             gates.append(g)
+            rejected_s = 0 if g.accepted else rejected_s + 1
             if g.accepted:
                 trans.correct(inn)
+            elif rejected_s >= MAX_CONSECUTIVE_REJECTIONS:
+                trans.core.reset_covariance(P0_s / np.outer(Ds, Ds))  # internal (scaled) units
+                rejected_s = 0
         if axi is None:
             att_ok = False
             if g_scale_a.accepted:
-                check = detector.add(ti, m.C_TI, w_hat_prev)
+                sd_pred = 4.0 * float(np.sqrt(np.max(np.linalg.eigvalsh(att.P[:3, :3]))))  # error MRP ≈ angle/4
+                check = detector.add(ti, m.C_TI, quat_to_dcm(att.q_IT).T @ C_post_fed.T, sd_pred)
                 if check is not None:
                     checks.append(check)
+                if roll_test is not None and m.cloud_L is not None and len(m.cloud_L) >= 10:
+                    roll_ratios.append((ti, roll_test.add(ti, cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, truth.C_LI[i].T, m.scale))))
                 inn = att.innovation(m.q_IT, R_a)
                 g = mahalanobis_gate(inn, t=ti, source="attitude")
                 gates.append(g)
+                rejected_a = 0 if g.accepted else rejected_a + 1
                 if g.accepted:
                     switched = att.correct(inn)
                     att_ok = True
+                elif rejected_a >= MAX_CONSECUTIVE_REJECTIONS:
+                    att.core.reset_covariance(np.diag(np.maximum(np.diag(att.P), np.diag(P0_a))))
+                    rejected_a = 0
             if not att_ok and cfg.prior == "proxy":
                 # The same prior is reused at every rejection; its error is not white. The n-th use
                 # gets variance n(n+1)·σ², so the uses add up to the prior's information 1/σ² at most
@@ -347,11 +389,13 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
                 proxy_updates += 1
                 var = proxy_updates * (proxy_updates + 1) * (cfg.prior_error * prior_rate) ** 2
                 att.correct(att.rate_proxy_innovation(prior_rate, var))
-            if detector.detected:
+            if g_scale_a.accepted:
+                C_post_fed = quat_to_dcm(att.q_IT).T
+            if detector.detected or (roll_test is not None and roll_test.detected):
                 switch_time = ti
                 axi, C_GammaI = _start_axisymmetric(cfg, truth, i, m, att, rng)
         elif g_scale_a.accepted:
-            inn = axi.innovation(m.C_TI[1], R_SCALED)  # §V.B: second row of C_TI = J in I
+            inn = axi.innovation(m.C_TI[1], R_axis)  # §V.B: second row of C_TI = J in I
             g = mahalanobis_gate(inn, t=ti, source="axis")  # ν = 2 here
             gates.append(g)
             if g.accepted:
@@ -359,7 +403,8 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
         iteration_s[i - 1] = time.perf_counter() - tic
         record(ti, switched)
 
-    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None))
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None),
+                      roll_ratios=np.array(roll_ratios).reshape(-1, 2))
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
@@ -414,8 +459,11 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredP
 
 
 def mrp_error(sigma_est, q_true) -> np.ndarray:
-    """``σ̂ − σ``, with the true MRP taken on the estimate's side (shadow set if closer)."""
-    return sigma_est - nearest_mrp(quat_to_mrp(q_true), sigma_est)
+    """Body-frame error MRP of the estimate, ``δσ`` with ``q̂ = q_true ⊗ q(δσ)`` (``|δσ| ≤ 1``).
+
+    The attitude filter's covariance is that of this error (:class:`estimators.combina_attitude.AttitudeUKF`).
+    """
+    return quat_to_mrp(quat_multiply(quat_conjugate(q_true), mrp_to_quat(sigma_est)))
 
 
 def component_errors(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -530,6 +578,7 @@ def run_metrics(run: CombinaRun) -> dict:
         "units": {"TU_s": TU, "LU_m": LU, "note": "errors in SI: m, m/s, MRP, rad/s, 1, rad, rad/s"},
         "mode": run.steps[-1].mode,
         "symmetry_detected": run.switch_time_s is not None,
+        "roll_ratio_median": float(np.median(run.roll_ratios[:, 1])) if len(run.roll_ratios) else None,
         "switch_time_s": run.switch_time_s,
         "components": comps,
         "gate_counts": counts,

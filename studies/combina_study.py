@@ -155,9 +155,12 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         "Student-t interval; within 3σ: per run, the fraction of steps after convergence (all steps if it never converged) "
         "where every axis of the error lies inside ±3σ of the filter's covariance, then its mean over runs."
     )
-    sym_notes = (f"Symmetry declared when the median of the last {detector.window} discrepancies between the measured and "
-                 f"predicted principal-angle variations (eqs 33-34) exceeds {np.rad2deg(detector.threshold_rad):g}°; the "
-                 "detection rate carries a Wilson interval, the switch time a BCa bootstrap interval of the median.")
+    sym_notes = (f"Symmetry declared when the median of the last {detector.window} angles between the measured relative "
+                 "rotation of consecutive registrations and the filter's integrated prediction (eqs 33-34, counted only "
+                 f"while 3σ of the prediction is below the threshold) exceeds {np.rad2deg(detector.threshold_rad):g}°, or "
+                 "(rendered chain) when the clouds rolled by 90/180/270° about the body y axis fit the coarse model as well "
+                 "as unrolled (RollSymmetryTest); the detection rate carries a Wilson interval, the switch time a BCa "
+                 "bootstrap interval of the median.")
     for target in dict.fromkeys(runs["target"]):
         plot_convergence(runs[runs["target"] == target], target, out_dir, out_dir / f"convergence_{target}.png")
     plot_symmetry(runs, out_dir, out_dir / "symmetry.png", np.rad2deg(detector.threshold_rad))

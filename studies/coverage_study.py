@@ -1,9 +1,9 @@
 """Study ``coverage``: CoMBiNa convergence against the target's tumbling rate (``000_…`` §VII, Fig. 20).
 
-As in the paper: for each tumbling-rate level ``f`` (Hz), random initial
-conditions draw the target's inertia ratios ``k1, k2`` uniformly in
+As in the paper: for each tumbling-rate level ``|ω_T|`` (rad/s), random
+initial conditions draw the target's inertia ratios ``k1, k2`` uniformly in
 ``k_range``, its attitude ``σ_T`` uniformly (:func:`random_quaternion`) and the
-direction of ``ω_T`` uniformly on the sphere, with ``|ω_T| = 2π f``; the chaser
+direction of ``ω_T`` uniformly on the sphere; the chaser
 measures the target's pose at ``measurement_rate_hz`` (0.33 Hz, the rate the
 timing study allows) with the simulated BCPD-like source, for
 ``horizon_orbits`` of the chaser's orbit (half an orbit). A run has
@@ -15,6 +15,10 @@ of its χ² distribution (:func:`studies.combina.filter_nees`) — "the errors o
 the last 10 time steps have a probability of at least 99%". A filter that
 breaks down numerically (a covariance that is no longer positive definite)
 has not converged; such runs are counted as ``diverged``.
+
+Units: the paper's Fig. 20 axis reads "Hz", but its coverage drop sits where
+the target turns π between two 0.33 Hz measurements (π × 0.33 = 1.04 rad/s),
+so its levels 0.15 … 1.5 are rad/s; they are used as such here.
 
 The summary is Fig. 20 with intervals: per level, the converged fraction with
 its Wilson interval (:func:`studies.stats.proportion_interval`), drawn as
@@ -41,7 +45,7 @@ from studies.tables import Table
 TITLE = "CoMBiNa coverage against tumbling rate (000 §VII, Fig. 20)"
 
 FIELDS: dict[str, Field] = {
-    "rate_levels_hz": Field("list[float]", "Tumbling-rate levels |ω_T|/2π, Hz.", gt=0),
+    "rate_levels_rad_s": Field("list[float]", "Tumbling-rate levels |ω_T|, rad/s.", gt=0),
     "n_initial_conditions": Field("int", "Random initial conditions per level.", ge=1),
     "measurement_rate_hz": Field("float", "Pose measurement rate, Hz.", gt=0),
     "horizon_orbits": Field("float", "Simulated time per run, in chaser orbits (2π TU).", gt=0),
@@ -66,10 +70,10 @@ def check(params: dict) -> None:
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:
-    """Levels × initial conditions; run ids ``f<level>Hz-ic<index>``."""
+    """Levels × initial conditions; run ids ``w<level>rads-ic<index>``."""
     common = {k: config[k] for k in _RUN_FIELDS}
-    return make_specs(config.seed, ((f"f{f:.4f}Hz-ic{i:03d}", {"rate_level_hz": f, "ic_index": i, **common})
-                                    for f in config["rate_levels_hz"] for i in range(config["n_initial_conditions"])))
+    return make_specs(config.seed, ((f"w{w:.3f}rads-ic{i:03d}", {"rate_level_rad_s": w, "ic_index": i, **common})
+                                    for w in config["rate_levels_rad_s"] for i in range(config["n_initial_conditions"])))
 
 
 def converged_last(nees: dict, t_last_s: float, confidence: float) -> dict[str, bool]:
@@ -93,7 +97,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     k = rng.uniform(*p["k_range"], size=2)
     q_IT0 = random_quaternion(rng)
     direction = rng.normal(size=3)
-    w_T0 = 2 * np.pi * p["rate_level_hz"] * direction / np.linalg.norm(direction)
+    w_T0 = p["rate_level_rad_s"] * direction / np.linalg.norm(direction)
     cfg = CombinaConfig(target="asymmetric", duration_tu=p["horizon_orbits"] * 2 * np.pi, rate_hz=p["measurement_rate_hz"],
                         seed=int(rng.integers(2**62)))
     cfg.validate()  # a bad configuration is an error, not a divergence
@@ -126,14 +130,14 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     conf = config["confidence"]
     pct = int(round(100 * conf))
     rows = []
-    for f, sub in runs.groupby("rate_level_hz", sort=True):
+    for w, sub in runs.groupby("rate_level_rad_s", sort=True):
         conv = sub["converged"].astype(bool)
         iv = proportion_interval(int(conv.sum()), len(sub), conf)
         rows.append({
-            "rate (Hz)": f, "|ω| (rad/s)": 2 * np.pi * f, "rotation per measurement (deg)": float(sub["rotation_per_measurement_deg"].iloc[0]),
+            "tumbling rate (rad/s)": w, "rotation per measurement (deg)": float(sub["rotation_per_measurement_deg"].iloc[0]),
             "runs": len(sub), "converged runs": int(conv.sum()), "converged": iv.estimate, f"{pct}% lo": iv.lo, f"{pct}% hi": iv.hi,
             "translation passed": float(sub["translation_ok"].astype(bool).mean()), "attitude passed": float(sub["attitude_ok"].astype(bool).mean()),
-            "diverged": int(sub["diverged"].astype(bool).sum()), "symmetry switches": int(sub["symmetry_detected"].astype(bool).sum()),
+            "diverged": int(sub["diverged"].astype(bool).sum()), "false symmetry switches": int(sub["symmetry_detected"].astype(bool).sum()),
             "median run (s)": float(sub["elapsed_s"].median()),
         })
     summary = pd.DataFrame(rows)
@@ -164,7 +168,7 @@ def plot_coverage(summary: pd.DataFrame, pct: int, path: Path) -> None:
     ax.errorbar(x, 100 * frac, yerr=100 * err, fmt="none", ecolor="k", capsize=3, label=f"Wilson {pct}% interval")
     for xi, (n, k) in enumerate(zip(summary["runs"], summary["converged runs"])):
         ax.text(xi, 102, f"{k}/{n}", ha="center", fontsize=7, color="tab:red")
-    ax.set(xticks=x, xticklabels=[f"{f:g}" for f in summary["rate (Hz)"]], xlabel="tumbling rate (Hz)", ylabel="converged (%)",
+    ax.set(xticks=x, xticklabels=[f"{w:g}" for w in summary["tumbling rate (rad/s)"]], xlabel="tumbling rate |ω| (rad/s)", ylabel="converged (%)",
            ylim=(0, 112), title="CoMBiNa coverage against tumbling rate (000 Fig. 20 analogue)")
     ax.legend(fontsize=7, loc="lower left")
     with atomic_path(path) as tmp:

@@ -1,63 +1,75 @@
-"""Attitude UKF of 000 §IV.B: process model (eqs 28–29), MRP wrap in the innovation, shadow switch (eqs 31–32)."""
+"""Attitude UKF of 000 §IV.B: process model (eqs 28–29) at fast rates, error-MRP sigma points across π, process noise."""
 
 import numpy as np
 import pytest
 
-from estimators.attitude import attitude_angle, mrp_shadow, mrp_to_quat, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import AttitudeUKF, nearest_mrp
+from estimators.attitude import attitude_angle, mrp_to_quat, quat_to_mrp, rotvec_to_quat
+from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance
 from estimators.dynamics import inertia_from_k, integrate_absolute
 
 K = np.array([0.03, -0.1])
 W0 = np.array([-0.3953, -0.7065, -0.8153]) / 963.65
 
 
-def test_prediction_matches_absolute_rigid_body():
-    """Tiny covariance: the predicted MRP and rate follow the DOP853 quaternion + Euler truth over 600 s."""
+@pytest.mark.parametrize("rate_rad_s", [0.02, 1.2])
+def test_prediction_matches_absolute_rigid_body(rate_rad_s):
+    """Tiny covariance: 3 s predictions follow the DOP853 quaternion + Euler truth over 300 s.
+
+    At 1.2 rad/s the target turns 206° per prediction; one RK4 step per prediction (the old
+    setting) was off by radians, the rate-adaptive steps stay below 1e-4 rad (0.006°, against 2° of registration noise).
+    """
+    k = np.array([0.8, -0.6])
+    w0 = rate_rad_s * np.array([0.3, -0.5, 0.81]) / np.linalg.norm([0.3, -0.5, 0.81])
     q0 = mrp_to_quat(np.array([-0.083, 0.220, -0.500]))
-    x0 = np.concatenate([quat_to_mrp(q0), W0 * 20.0, K])  # 20× the paper's rate: ~14 rad turned
-    f = AttitudeUKF(x0, 1e-14 * np.eye(8))
-    y0 = np.concatenate([np.array([7e6, 0, 0, 0, 7.5e3, 0]), q0, W0 * 20.0])
-    tr = integrate_absolute(y0, np.linspace(0.0, 600.0, 201), inertia_from_k(*K))
-    for i in range(1, 201):
+    f = AttitudeUKF(np.concatenate([quat_to_mrp(q0), w0, k]), 1e-14 * np.eye(8))
+    y0 = np.concatenate([np.array([7e6, 0, 0, 0, 7.5e3, 0]), q0, w0])
+    tr = integrate_absolute(y0, np.linspace(0.0, 300.0, 101), inertia_from_k(*k))
+    for i in range(1, 101):
         f.predict(3.0)
-        f.switch_to_shadow_if_needed()
-        err = attitude_angle(tr.q_IB[i], f.q_IT)
-        assert err < 1e-7
-        np.testing.assert_allclose(f.x[3:6], tr.w_B[i], rtol=0, atol=1e-10)
-    assert f.n_shadow_switches >= 1
+        assert attitude_angle(tr.q_IB[i], f.q_IT) < 1e-4
+        np.testing.assert_allclose(f.x[3:6], tr.w_B[i], rtol=0, atol=1e-5)
+        assert np.linalg.norm(f.x[:3]) <= 1.0 + 1e-12  # the reported MRP stays in the |σ| ≤ 1 set
 
 
-def test_innovation_uses_the_predicted_sets_side():
-    """Near |σ| = 1 the measured MRP is re-expressed on the estimate's side: a 1° difference, not ~360°."""
-    axis = np.array([0.0, 0.6, 0.8])
-    est = np.tan(np.deg2rad(179.5) / 4) * axis  # |σ| just below 1
-    f = AttitudeUKF(np.concatenate([est, W0, K]), 1e-4 * np.eye(8))
-    q_meas = rotvec_to_quat(np.deg2rad(180.5) * axis)  # 1° further: its |σ| ≤ 1 set is on the far side
-    assert np.linalg.norm(quat_to_mrp(q_meas) - est) > 1.9
-    inn = f.innovation(q_meas, 0.01 * np.eye(3))
-    # 1° about the axis at |σ| ≈ 1 is dσ = dθ/4·(1+σ²) = dθ/2 along the axis
-    assert np.linalg.norm(inn.y) == pytest.approx(np.deg2rad(1.0) / 2, rel=0.02)
-    np.testing.assert_allclose(nearest_mrp(quat_to_mrp(q_meas), est), mrp_shadow(quat_to_mrp(q_meas)))
+def test_sigma_points_straddling_180_degrees_keep_mean_and_covariance():
+    """An estimate at 179° with 10° 1-σ: half the sigma points lie beyond 180° (the far MRP set).
 
-
-def test_shadow_switch_keeps_attitude_error_continuous():
-    """A correction that pushes |σ| > 1 triggers eqs 31–32; the attitude (and its error) does not jump (< 1e-9 rad)."""
+    Averaging global MRPs across |σ| = 1 moved the mean by tens of degrees; with error MRPs
+    a prediction at zero rate leaves the attitude (< 1e-9 rad) and its covariance unchanged.
+    """
     axis = np.array([0.36, 0.48, 0.8])
-    q_true = rotvec_to_quat(np.deg2rad(182.0) * axis)
-    f = AttitudeUKF(np.concatenate([np.tan(np.deg2rad(178.0) / 4) * axis, W0, K]), np.diag([1e-2] * 3 + [1e-8] * 3 + [1e-2] * 2))
-    inn = f.innovation(q_true, 1e-4 * np.eye(3))
-    f.core.correct(inn)  # the update alone: |σ| > 1 now
-    sigma_before, P_before = f.x[:3].copy(), f.P.copy()
-    assert np.linalg.norm(sigma_before) > 1.0
-    err_before = attitude_angle(q_true, mrp_to_quat(sigma_before))
-    assert f.switch_to_shadow_if_needed()
-    assert np.linalg.norm(f.x[:3]) < 1.0
-    err_after = attitude_angle(q_true, f.q_IT)
-    assert abs(err_after - err_before) < 1e-9
-    assert attitude_angle(mrp_to_quat(sigma_before), f.q_IT) < 1e-9
-    # covariance of the non-MRP states untouched, the MRP block transformed (positive definite)
-    np.testing.assert_allclose(f.P[3:, 3:], P_before[3:, 3:])
+    sd = np.deg2rad(10.0) / 4.0
+    P0 = np.diag([sd**2] * 3 + [1e-16] * 3 + [1e-6] * 2)
+    f = AttitudeUKF(np.concatenate([np.tan(np.deg2rad(179.0) / 4) * axis, np.zeros(3), K]), P0)
+    q_before = f.q_IT.copy()
+    f.predict(3.0)
+    assert attitude_angle(q_before, f.q_IT) < 1e-9
+    np.testing.assert_allclose(f.P[:3, :3], P0[:3, :3], rtol=1e-6, atol=1e-12)
+
+
+def test_innovation_across_the_shadow_boundary_is_the_small_error():
+    """Measured 1° beyond 180° from an estimate 0.5° below: the innovation is the 1° error (δσ ≈ δθ/4), not ~360°."""
+    axis = np.array([0.0, 0.6, 0.8])
+    f = AttitudeUKF(np.concatenate([np.tan(np.deg2rad(179.5) / 4) * axis, W0, K]), 1e-4 * np.eye(8))
+    q_meas = rotvec_to_quat(np.deg2rad(180.5) * axis)
+    inn = f.innovation(q_meas, error_mrp_noise_covariance(np.deg2rad(2.0)))
+    assert np.linalg.norm(inn.y) == pytest.approx(np.tan(np.deg2rad(1.0) / 4), rel=1e-6)
+    switched = f.correct(inn)
+    assert switched  # the estimate crossed 180°: its global MRP moved to the other set (eqs 31–32's event)
+    assert np.linalg.norm(f.x[:3]) <= 1.0
+    assert attitude_angle(q_meas, f.q_IT) < np.deg2rad(0.5)
     assert np.min(np.linalg.eigvalsh(f.P)) > 0
+
+
+def test_process_noise_keeps_k_adjustable():
+    """Q adds variance to ω and k per step (without it k's variance collapses); a 3 s step adds 3e-8 to k."""
+    Q = attitude_process_noise(3.0)
+    assert Q.shape == (8, 8) and np.all(np.diag(Q) > 0)
+    assert Q[6, 6] == pytest.approx(1e-8 * 3.0)
+    assert Q[3, 3] == pytest.approx((1e-7 * 3.0) ** 2)
+    f = AttitudeUKF(np.concatenate([np.zeros(3), W0, K]), 1e-12 * np.eye(8), Q=attitude_process_noise)
+    f.predict(3.0)
+    assert f.P[6, 6] >= 1e-12 + 3e-8 - 1e-14
 
 
 def test_rate_proxy_measures_the_spin_rate():
@@ -71,8 +83,12 @@ def test_rate_proxy_measures_the_spin_rate():
 def test_bad_input():
     with pytest.raises(ValueError, match="x0"):
         AttitudeUKF(np.zeros(7), np.eye(7))
+    with pytest.raises(ValueError, match="max_angle_rad"):
+        AttitudeUKF(np.zeros(8), np.eye(8), max_angle_rad=0.0)
     f = AttitudeUKF(np.zeros(8), np.eye(8))
     with pytest.raises(ValueError, match="dt_s"):
         f.predict(-1.0)
     with pytest.raises(ValueError, match="proxy"):
         f.rate_proxy_innovation(-1.0, 1.0)
+    with pytest.raises(ValueError, match="attitude_sigma_rad"):
+        error_mrp_noise_covariance(0.0)
