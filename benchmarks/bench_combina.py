@@ -1,4 +1,4 @@
-"""CoMBiNa per-iteration time (``000_…`` §VII.A, Fig. 19).
+"""CoMBiNa per-iteration time (Maestrini et al. §VII.A, Fig. 19).
 
 Simulated chain: one iteration = registration (the simulated BCPD-like draw)
 + prediction + gates + update of both filters (+ the symmetry check), timed
@@ -99,7 +99,7 @@ def run() -> str:
     lines = [
         "## CoMBiNa per-iteration time (simulated chain)",
         "",
-        f"{N_ITER} iterations at {RATE_HZ} Hz of the 000 §VI scenario (`studies.combina.run_combina`); times in ms, percentiles as in Fig. 19 of 000.",
+        f"{N_ITER} iterations at {RATE_HZ} Hz of the Maestrini et al. §VI scenario (`studies.combina.run_combina`); times in ms, percentiles as in Fig. 19 of 000.",
         "One iteration = simulated BCPD-like registration + prediction + gates + update of both filters + symmetry check.",
         "",
         "| chain | p50 | p90 | p99 | p99.9 | max |",

@@ -1,4 +1,4 @@
-"""CoMBiNa coverage against tumbling rate (000 §VII, Fig. 20): the full ``lcnav study coverage``, table and figure.
+"""CoMBiNa coverage against tumbling rate (Maestrini et al. §VII, Fig. 20): the full ``lcnav study coverage``, table and figure.
 
 ``python -m benchmarks coverage`` runs the study with its default config
 (``studies/configs/coverage.toml``: levels 0.15 … 1.5 rad/s, 30 initial
@@ -31,7 +31,7 @@ def section(out_dir: Path, outcome_tables, wall_s: float, runs: pd.DataFrame) ->
     fr = summary.frame
     low = fr[fr["tumbling rate (rad/s)"] <= 1.0 + 1e-9]
     lines = [
-        "## CoMBiNa coverage against tumbling rate (`lcnav study coverage`, 000 §VII Fig. 20)",
+        "## CoMBiNa coverage against tumbling rate (`lcnav study coverage`, Maestrini et al. §VII Fig. 20)",
         "",
         f"Full default study: {len(runs)} runs, {runs['elapsed_s'].sum() / 60:.1f} min of run time, {wall_s / 60:.1f} min wall on 2 workers. "
         f"Levels ≤ 1.0 rad/s: converged {low['converged runs'].sum()}/{low['runs'].sum()} "

@@ -1,4 +1,4 @@
-"""CoMBiNa's attitude UKF (``000_…`` §IV.B, eqs 25–32).
+"""CoMBiNa's attitude UKF (Maestrini et al. §IV.B, eqs 25–32).
 
 State ``x_a = [σ_IT, ω_T, k1, k2]`` (8): the MRP of the target's attitude
 ``q_IT`` (target frame T to inertial I; the paper's ``σ_T`` of ``C_TI``, see
@@ -38,7 +38,7 @@ How the attitude is carried (the paper's global MRP fails on fast tumblers):
   measured attitude relative to ``q̂``; its noise is the registration's
   body-frame rotation error over 4 (:func:`error_mrp_noise_covariance`).
 
-Spin priors (``002_…`` §6, used by the studies): ``ω_0`` and its ``P_0`` block
+Spin priors (Renis et al. §6, used by the studies): ``ω_0`` and its ``P_0`` block
 are simply the constructor's arguments; :meth:`rate_proxy_innovation` builds
 the proxy measurement of the spin *rate* ``|ω|`` that a light curve gives.
 """
@@ -100,7 +100,7 @@ def attitude_rhs_quat(x: np.ndarray) -> np.ndarray:
 
 
 class AttitudeUKF:
-    """UKF on ``[δσ, ω_T (rad/s), k1, k2]`` about a reference ``q̂_IT`` (eqs 28–32 of ``000_…``), SI units.
+    """UKF on ``[δσ, ω_T (rad/s), k1, k2]`` about a reference ``q̂_IT`` (eqs 28–32 of Maestrini et al.), SI units.
 
     Parameters
     ----------

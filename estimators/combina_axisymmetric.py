@@ -1,4 +1,4 @@
-"""CoMBiNa's axisymmetric mode (``000_…`` §V, eqs 35–45).
+"""CoMBiNa's axisymmetric mode (Maestrini et al. §V, eqs 35–45).
 
 For a target with ``A = C ≠ B`` (symmetry axis = body ``y``), the direction
 ``J`` of the symmetry axis precesses about the constant angular momentum ``Γ``

@@ -1,4 +1,4 @@
-"""CoMBiNa's two outlier checks before each update (``000_…`` §IV.A–B).
+"""CoMBiNa's two outlier checks before each update (Maestrini et al. §IV.A–B).
 
 1. BCPD's similarity scale ``s`` must lie in ``[0.8, 1.2]``: a registration
    that had to shrink or stretch the model to fit has deformed the body and
@@ -20,9 +20,9 @@ from estimators.combina_unscented import Innovation
 from estimators.gates import GateDecision, chi_square_gate
 
 SCALE_BOUNDS = (0.8, 1.2)
-"""Accepted BCPD scale factors (§IV.A of ``000_…``)."""
+"""Accepted BCPD scale factors (§IV.A of Maestrini et al.)."""
 MAHALANOBIS_CONFIDENCE = 0.99
-"""Probability of accepting a correct measurement (eq. 19 of ``000_…``)."""
+"""Probability of accepting a correct measurement (eq. 19 of Maestrini et al.)."""
 
 REASON_SCALE = "scale outside bounds"
 REASON_NO_REGISTRATION = "no registration (degenerate cloud or target not seen)"

@@ -1,4 +1,4 @@
-"""CoMBiNa's translational UKF (``000_…`` §IV.B, eqs 9–17 and 21–24).
+"""CoMBiNa's translational UKF (Maestrini et al. §IV.B, eqs 9–17 and 21–24).
 
 State ``x_s = [r, v]`` of the target's centre of mass relative to the chaser,
 in the chaser's LVLH frame ``L`` (x radial, y along-track, z orbit normal).
@@ -24,7 +24,7 @@ from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
 
 @dataclass(frozen=True)
 class ScaledUnits:
-    """The scaled units of §VI of ``000_…``: ``TU`` seconds and ``LU`` metres."""
+    """The scaled units of §VI of Maestrini et al.: ``TU`` seconds and ``LU`` metres."""
 
     TU_s: float
     LU_m: float

@@ -1,4 +1,4 @@
-"""The unscented Kalman step shared by CoMBiNa's three filters (``000_…`` §IV.B).
+"""The unscented Kalman step shared by CoMBiNa's three filters (Maestrini et al. §IV.B).
 
 Sigma points and weights are those of eqs 10–11 (Van der Merwe's scaled set:
 the paper's ``γ`` is filterpy's ``alpha``, ``τ = γ²(l + κ) − l`` its

@@ -1,4 +1,4 @@
-"""Symmetry detection (``000_…`` §IV.C), from consecutive attitude measurements and from point clouds.
+"""Symmetry detection (Maestrini et al. §IV.C), from consecutive attitude measurements and from point clouds.
 
 **Temporal test** (:class:`SymmetryDetector`). The paper compares the angle
 turned between two measurement epochs as measured, eq. 33 as it should read,

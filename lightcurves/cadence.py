@@ -16,7 +16,7 @@ Shapes (:func:`curve`, magnitude against phase in cycles of the light
 curve's fundamental): ``sinusoid``; ``sawtooth`` (Cepheid-like: fast rise,
 slow decline); ``eclipsing`` (two unequal minima half a cycle apart — the
 strongest harmonic is the second); ``double`` (two unequal maxima per turn,
-the rocket body of ``002_…`` §5.1). The fundamental of each shape is the
+the rocket body of Renis et al. §5.1). The fundamental of each shape is the
 frequency a period finder should return (the published period; the
 rotation frequency when ``maxima_per_rotation`` is explained).
 

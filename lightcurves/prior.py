@@ -1,6 +1,6 @@
 """Spin priors from light curves: the fundamental frequency, a calibrated 1-σ, and an honest "no period".
 
-:func:`extract_spin_prior` (``002_…`` §2.3 and §5, made to hold on sparse,
+:func:`extract_spin_prior` (Renis et al. §2.3 and §5, made to hold on sparse,
 aliased photometry):
 
 1. check the series; remove a weighted quadratic in time (the slow change of

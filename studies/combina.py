@@ -1,4 +1,4 @@
-"""The CoMBiNa closed loop of ``000_…`` §VI: truth, measurements, filters, metrics.
+"""The CoMBiNa closed loop of Maestrini et al. §VI: truth, measurements, filters, metrics.
 
 Scenario (§VI): the chaser on an 800 km circular orbit; the target's centre of
 mass starts at ``r(0) = [2, 0, 0.2] LU``, ``v(0) = [0, −4, 0] LU/TU`` in the
@@ -30,19 +30,19 @@ and target, turned into the LVLH relative state, so the filter's NERM model
 
 Targets: ``asymmetric`` has ``k = [0.03, −0.1]`` (eq. 47, a box-wing);
 ``symmetric`` is a rocket body with ``A = C = 4 B`` (``k = [ln 4, −ln 4]``, the
-axisymmetric inertia of ``002_…`` §6 rounded), symmetry axis = body ``y``.
+axisymmetric inertia of Renis et al. §6 rounded), symmetry axis = body ``y``.
 
 Measurements come from a :class:`MeasurementSource` — the simulated
 BCPD-like source of :mod:`perception.simulated_bcpd`, or the rendered stereo +
 BCPD chain of :mod:`studies.combina_rendered` (Mitsuba images of the box-wing
 or Atlas-Centaur meshes, whose own inertia ratios then replace the ones above).
 
-Spin priors (``--prior``, ``002_…`` §6): ``init`` draws ``ω_0`` around the truth
+Spin priors (``--prior``, Renis et al. §6): ``init`` draws ``ω_0`` around the truth
 with a relative error ``prior_error`` (isotropic, ``|ω_0 − ω| ≈ prior_error |ω|``)
 and sets the ``ω`` block of ``P_0`` to ``(prior_error |ω_0|)²/3 · I``. ``proxy``
 does the same and, whenever the attitude filter rejects a BCPD measurement,
 updates it with the prior's spin *rate* ``|ω_0|`` instead (a light curve gives
-a rate, not a body-frame vector; ``002_…``'s fixed-vector proxy is valid only
+a rate, not a body-frame vector; Renis et al.'s fixed-vector proxy is valid only
 for 1-axis spin), with variance ``(prior_error |ω_0|)²`` inflated at each reuse
 so that the reuses together never carry more than the prior's own
 information. In axisymmetric mode the prior's rate initialises ``Γ/A`` (the
@@ -70,7 +70,7 @@ from lightcurves.targets import get_target
 from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
 from studies.truth import simulate_truth
 
-# ---------------------------------------------------------------- scenario (000_… §VI)
+# ---------------------------------------------------------------- scenario (Maestrini et al. §VI)
 
 SCENARIO = get_scenario("COMBINA")
 R_T_M = SCENARIO.orbit_radius_m
@@ -504,7 +504,7 @@ def filter_nees(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, int]
 
     The normalised estimation error squared is χ²-distributed with as many
     degrees of freedom as the filter has states (6, 8, 3) when the filter is
-    consistent: the Mahalanobis test of 000 §VII ("the errors of the last 10
+    consistent: the Mahalanobis test of Maestrini et al. §VII ("the errors of the last 10
     time steps have a probability of at least 99%").
     """
     errs = component_errors(run)

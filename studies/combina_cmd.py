@@ -167,7 +167,7 @@ def register(app: typer.Typer) -> None:
         axis_frame: str = typer.Option("known", help="axisymmetric mode: known | estimated frame I_Gamma", callback=v.text()),
         out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
-        """CoMBiNa relative navigation (000 §VI): writes metrics.json, states.parquet, combina.rrd."""
+        """CoMBiNa relative navigation (Maestrini et al. §VI): writes metrics.json, states.parquet, combina.rrd."""
         cfg = CombinaConfig(target=target, measurements=measurements, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior, prior_error=prior_error, axis_frame=axis_frame, quick=quick)
         m = run_command(cfg, out)
         c = m["components"]

@@ -1,4 +1,4 @@
-"""The rendered measurement chain of CoMBiNa (``000_…`` §IV.A): Mitsuba stereo → point cloud → BCPD.
+"""The rendered measurement chain of CoMBiNa (Maestrini et al. §IV.A): Mitsuba stereo → point cloud → BCPD.
 
 At each measurement epoch the chaser points its stereo camera at the
 *estimated* target position, Mitsuba renders the pair with the target at its
@@ -22,7 +22,7 @@ Choices made here:
   recorded as rejected registrations;
 * the chaser's camera axes follow :func:`perception.render.pointing_dcm`
   (boresight at the estimate, image up along the orbit normal); its attitude
-  is known (§III of ``000_…``).
+  is known (§III of Maestrini et al.).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Study ``combina``: CoMBiNa convergence and symmetry detection over many seeds (``000_…`` §VI).
+"""Study ``combina``: CoMBiNa convergence and symmetry detection over many seeds (Maestrini et al. §VI).
 
 The paper shows single runs: the convergence of the translational filter
 (Fig. 10: errors in ``r``, ``v`` with 3-σ bounds), of the attitude filter for
@@ -43,7 +43,7 @@ from studies.stats import bootstrap_interval, describe, proportion_interval
 from studies.sweep import RunSpec, make_specs, run_dir
 from studies.tables import Table
 
-TITLE = "CoMBiNa convergence and symmetry detection (000 §VI, Figs 10, 11, 14-17), over seeds"
+TITLE = "CoMBiNa convergence and symmetry detection (Maestrini et al. §VI, Figs 10, 11, 14-17), over seeds"
 
 FIELDS: dict[str, Field] = {
     "targets": Field("list[str]", "Targets: asymmetric (box-wing, eq. 47) and/or symmetric (rocket body).", choices=TARGETS),

@@ -1,4 +1,4 @@
-"""Study ``coverage``: CoMBiNa convergence against the target's tumbling rate (``000_…`` §VII, Fig. 20).
+"""Study ``coverage``: CoMBiNa convergence against the target's tumbling rate (Maestrini et al. §VII, Fig. 20).
 
 As in the paper: for each tumbling-rate level ``|ω_T|`` (rad/s), random
 initial conditions draw the target's inertia ratios ``k1, k2`` uniformly in
@@ -42,7 +42,7 @@ from studies.stats import proportion_interval
 from studies.sweep import RunSpec, make_specs
 from studies.tables import Table
 
-TITLE = "CoMBiNa coverage against tumbling rate (000 §VII, Fig. 20)"
+TITLE = "CoMBiNa coverage against tumbling rate (Maestrini et al. §VII, Fig. 20)"
 
 FIELDS: dict[str, Field] = {
     "rate_levels_rad_s": Field("list[float]", "Tumbling-rate levels |ω_T|, rad/s.", gt=0),
@@ -169,7 +169,7 @@ def plot_coverage(summary: pd.DataFrame, pct: int, path: Path) -> None:
     for xi, (n, k) in enumerate(zip(summary["runs"], summary["converged runs"])):
         ax.text(xi, 102, f"{k}/{n}", ha="center", fontsize=7, color="tab:red")
     ax.set(xticks=x, xticklabels=[f"{w:g}" for w in summary["tumbling rate (rad/s)"]], xlabel="tumbling rate |ω| (rad/s)", ylabel="converged (%)",
-           ylim=(0, 112), title="CoMBiNa coverage against tumbling rate (000 Fig. 20 analogue)")
+           ylim=(0, 112), title="CoMBiNa coverage against tumbling rate (Maestrini et al. Fig. 20 analogue)")
     ax.legend(fontsize=7, loc="lower left")
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=110)

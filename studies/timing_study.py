@@ -1,4 +1,4 @@
-"""Study ``timing``: per-iteration cost of the CoMBiNa filter (``000_…`` §VII, Fig. 19).
+"""Study ``timing``: per-iteration cost of the CoMBiNa filter (Maestrini et al. §VII, Fig. 19).
 
 The paper times 1000 filter iterations sampled from simulated trajectories
 (BCPD registration, update and prediction) on a Raspberry Pi 4 and reads off
@@ -39,12 +39,12 @@ from studies.stats import bootstrap_interval, describe
 from studies.sweep import RunSpec, make_specs, run_dir
 from studies.tables import Table
 
-TITLE = "CoMBiNa per-iteration time (000 §VII, Fig. 19) on this machine"
+TITLE = "CoMBiNa per-iteration time (Maestrini et al. §VII, Fig. 19) on this machine"
 PARTS = {"filter_s": "prediction + update", "registration_s": "registration", "total_s": "iteration"}
 
 FIELDS: dict[str, Field] = {
     "targets": Field("list[str]", "Targets whose runs are timed.", choices=TARGETS, default=["asymmetric"]),
-    "n_iterations": Field("int", "Timed iterations in all (000 §VII: 1000), shared by the seeds.", ge=1),
+    "n_iterations": Field("int", "Timed iterations in all (Maestrini et al. §VII: 1000), shared by the seeds.", ge=1),
     "n_seeds": Field("int", "Trajectories (runs) the iterations are sampled from, per target.", ge=1),
     "measurement_period_s": Field("float", "Time between two measurements, s.", gt=0, default=3.0),
     "percentiles": Field("list[float]", "Percentiles reported (0-100].", gt=0, le=100),
@@ -140,7 +140,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         f"machine {platform.machine()} ({platform.processor() or 'unknown CPU'}), Python {platform.python_version()}. "
         "prediction + update: both UKF predictions, gates, symmetry check and corrections; registration: the simulated "
         f"source's draw (no BCPD). Intervals: percentile bootstrap of the pooled percentile ({pct}%); the maximum has none. "
-        "Sustained rate = 1 / iteration time at that percentile (000 §VII: 0.34 Hz at p99, 0.30 Hz at p100 on a Raspberry Pi 4 with BCPD)."
+        "Sustained rate = 1 / iteration time at that percentile (Maestrini et al. §VII: 0.34 Hz at p99, 0.30 Hz at p100 on a Raspberry Pi 4 with BCPD)."
     )
     plot_timing(pooled, config["percentiles"], out_dir / "timing.png")
     return [Table("summary", TITLE, summary, notes, default_format=".3g"),

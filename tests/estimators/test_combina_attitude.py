@@ -1,4 +1,4 @@
-"""Attitude UKF of 000 §IV.B: process model (eqs 28–29) at fast rates, error-MRP sigma points across π, process noise."""
+"""Attitude UKF of Maestrini et al. §IV.B: process model (eqs 28–29) at fast rates, error-MRP sigma points across π, process noise."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Axisymmetric mode of 000 §V: precession model vs rigid-body truth, eq. 41, eqs 42–45, convergence."""
+"""Axisymmetric mode of Maestrini et al. §V: precession model vs rigid-body truth, eq. 41, eqs 42–45, convergence."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Symmetry detection of 000 §IV.C: measured vs predicted relative rotations over a window, and the geometric roll test."""
+"""Symmetry detection of Maestrini et al. §IV.C: measured vs predicted relative rotations over a window, and the geometric roll test."""
 
 import numpy as np
 import pytest

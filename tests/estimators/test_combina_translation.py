@@ -1,4 +1,4 @@
-"""Translational UKF of 000 §IV.B: UT algebra (eqs 10–17, 21–24), NERM propagation, scaled units."""
+"""Translational UKF of Maestrini et al. §IV.B: UT algebra (eqs 10–17, 21–24), NERM propagation, scaled units."""
 
 import numpy as np
 import pytest

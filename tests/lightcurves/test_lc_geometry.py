@@ -1,6 +1,5 @@
 """Observation geometry, attitude, photometric noise and sampling."""
 
-import astropy.units as u
 import numpy as np
 import pytest
 from astropy.time import Time

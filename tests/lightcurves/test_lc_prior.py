@@ -12,7 +12,7 @@ def uneven(rng, T=400.0, dt=0.5):
 
 
 def test_two_unequal_maxima_per_rotation_halve_the_strongest_frequency():
-    """The rocket-body case of 002 §5.1: strongest peak at 2 f_rot, odd harmonics from the unequal ends."""
+    """The rocket-body case of Renis et al. §5.1: strongest peak at 2 f_rot, odd harmonics from the unequal ends."""
     rng = np.random.default_rng(1)
     t = uneven(rng)
     f_rot = 5.0 / 360.0

@@ -1,4 +1,4 @@
-"""End to end: rendered light curves of the paper's targets → WindowCLEAN spin prior (002 §5.1).
+"""End to end: rendered light curves of the paper's targets → WindowCLEAN spin prior (Renis et al. §5.1).
 
 Atlas-Centaur-like body, one axis, 5 deg/s, 400 s at 0.5 s (paper: 5.04 deg/s, 1 % error) and the
 VESPA-like adapter, 3 deg/s, 550 s at 1 s (paper: 2.9 deg/s, 3 %), with photometric noise, jitter and

@@ -1,4 +1,4 @@
-"""The CoMBiNa closed loop (000 §VI) with simulated BCPD measurements: the issue's "tests that must hold".
+"""The CoMBiNa closed loop (Maestrini et al. §VI) with simulated BCPD measurements: the issue's "tests that must hold".
 
 Ten seeds per case; the truth of each target is integrated once and shared.
 Seeds change the initial estimate (drawn from P_0 of eq. 48) and the
