@@ -165,7 +165,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         plot_convergence(runs[runs["target"] == target], target, out_dir, out_dir / f"convergence_{target}.png")
     plot_symmetry(runs, out_dir, out_dir / "symmetry.png", np.rad2deg(detector.threshold_rad))
     return [Table("summary", TITLE, summary, notes, formats={"converged": ".0%", "within 3σ mean": ".1%"}, default_format=".3g"),
-            Table("symmetry", "Symmetry detection (Fig. 14 of 000) and the axisymmetric mode", symmetry, sym_notes, default_format=".3g")]
+            Table("symmetry", "Symmetry detection (Fig. 14 of Maestrini et al.) and the axisymmetric mode", symmetry, sym_notes, default_format=".3g")]
 
 
 def _savefig(fig, path: Path) -> None:

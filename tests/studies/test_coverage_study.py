@@ -24,7 +24,7 @@ def test_outputs_recordings_and_export(quick, tmp_path):
 
 
 def test_converged_fraction_falls_with_tumbling_rate(quick):
-    """Fig. 20 of 000: convergence drops from slow to fast tumbling (3 ICs per level here: the levels' rates
+    """Fig. 20 of Maestrini et al.: convergence drops from slow to fast tumbling (3 ICs per level here: the levels' rates
     themselves are checked within binomial bounds by test_coverage_at_two_levels_within_a_binomial_bound)."""
     summary = pd.read_parquet(quick / "summary.parquet").sort_values("tumbling rate (rad/s)")
     slow, fast = summary.iloc[0], summary.iloc[-1]
