@@ -196,7 +196,11 @@ def lightcurve_blueprint(*, spectra: Sequence[str] = ("dirty", "clean", "residua
     curve = rrb.Vertical(
         whole_run_plot(name="relative flux (up = brighter)", origin="/lightcurve/relative_flux"),
         whole_run_plot(name="magnitude (up = fainter)", origin="/lightcurve", contents=["/lightcurve/mag", "/lightcurve/mag_true"]),
-        whole_run_plot(name="geometry", origin="/lightcurve/geometry"),
+        rrb.Horizontal(
+            whole_run_plot(name="phase angle and elevation (deg)", origin="/lightcurve/geometry",
+                           contents=["/lightcurve/geometry/phase_angle_deg", "/lightcurve/geometry/elevation_deg"]),
+            whole_run_plot(name="range (km)", origin="/lightcurve/geometry", contents=["/lightcurve/geometry/range_km"]),
+        ),
         name="light curve",
     )
     spectrum = rrb.Vertical(*(rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}") for n in spectra),
