@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.inspect_cmd import export_series
+from studies.recording.reader import export_series
 from tests.rerun_cli import assert_rrd_verifies
 
 ARMS = ("none", "tuning", "init")
@@ -95,8 +95,8 @@ def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, 
 
 def test_a_filter_breakdown_is_counted_not_fatal(tmp_path):
     """A run whose filter raised (P not positive definite) counts as failed and not converged in the summary."""
-    from studies.chain_study import summarise
-    from studies.study_cmd import get_study
+    from studies.catalog.chain_study import summarise
+    from studies.engine.registry import get_study
 
     config = get_study("chain").load(quick=True)
     base = {"experiment": "init", "scenario": "SC3", "lc_truth_rate_deg_s": 2.82, "prior_significant": True, "lc_rate_deg_s": 2.83,

@@ -1,0 +1,448 @@
+"""One navigation run as the filter studies and ``lcnav run`` do it: measurements, initial guess, filter, metrics, recording.
+
+Shared by ``lcnav run`` (:mod:`studies.cli.run`) and the studies of Renis et al.
+§6 (:mod:`studies.catalog.tuning_study`, :mod:`studies.catalog.init_study`,
+:mod:`studies.catalog.proxy_study`):
+
+* :func:`initial_guess` — §6's initial estimate: ``q_TS = 1``, ``ω = r = v = 0``,
+  ``k`` from the true inertia scaled by ``U(lo, hi)`` per axis;
+* :func:`navigate` — simulated pose measurements (eqs 33–34, with fault
+  windows), the initial guess, optionally the prior as initial condition
+  (§6.2) and/or as proxy measurement (§6.3), then the filter;
+* :func:`run_metrics` — §6's convergence time and steady-state RMSE per
+  group, state and filter based, as a flat dict for a study's runs table;
+* :func:`consistency_check` — Monte-Carlo NEES/NIS and gate rates of one
+  filter and tuning from initial errors drawn from its ``P_0``;
+* :func:`error_series` — per-step error magnitude and 1-σ per group, the
+  data of the error-vs-time figures (Figs 6 and 7 of Renis et al.);
+* :func:`record_navigation` — the run's ``.rrd`` in the layout of
+  :mod:`studies.recording.blueprint` (truth, estimate, error ±3σ, measurements, gates).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from estimators.dynamics import k_from_inertia
+from estimators.error_state import ERROR_SLICES, boxminus, boxplus
+from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.navigation import SOURCES, NavigationRun, run_navigation
+from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
+from estimators.tuning import Tuning
+from perception.simulated_pose import simulate_pose_measurements
+from studies.recording.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
+from studies.engine.config import ConfigError, Field
+from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
+from studies.recording.writer import recording, send_scalars, set_sim_time
+from studies.engine.io import atomic_path
+from studies.sim.truth import Truth
+
+QUAT_AXES = ("0", "1", "2", "3")
+#: Error-state indices of ``k1, k2`` (considered, not estimated, in one-axis tumbles).
+K_STATES = (12, 13)
+
+
+def one_axis(w) -> bool:
+    """A tumble about one body axis (at most one non-zero rate component): ``k`` is then unobservable."""
+    return int(np.count_nonzero(np.asarray(w, dtype=float))) <= 1
+
+
+def initial_guess(tr: Truth, rng: np.random.Generator, inertia_range=(0.7, 1.3)) -> np.ndarray:
+    """§6 of Renis et al.: ``q_TS = 1``, ``ω = r = v = 0``, ``k`` of ``J_T · a``, ``a_i ~ U(lo, hi)``."""
+    a = rng.uniform(inertia_range[0], inertia_range[1], 3)
+    x0 = np.zeros(15)
+    x0[0] = 1.0
+    x0[13:15] = k_from_inertia(tr.J_T_diag * a)
+    return x0
+
+
+def navigate(
+    tr: Truth,
+    filter_name: str,
+    tuning: Tuning,
+    rng: np.random.Generator,
+    *,
+    P0=None,
+    prior: SpinPrior | None = None,
+    prior_use: str = "none",
+    proxy_mode: str = "always",
+    R_w: float = R_OMEGA_PROXY,
+    pose_noise: PoseNoise = PoseNoise(),
+    filter_noise: PoseNoise | None = None,
+    faults=(),
+    fault_sigma_q_rad: float = 1.5,
+    fault_sigma_r_m: float = 20.0,
+    gate_confidence: float | None = 0.99,
+    gate_start_s: float = 10.0,
+    reacquire_window: int | None = 5,
+    consider=(),
+    inertia_range=(0.7, 1.3),
+    meas=None,
+    P0_w_prior: float | None = None,
+):
+    """One filter run on the truth ``tr``; returns ``(NavigationRun, (t_meas, q_meas, r_meas, faulty))``.
+
+    Draws, in this order from ``rng``: the measurements (unless ``meas`` is
+    given; noise ``pose_noise``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
+    both. The filter's ``R_d`` is ``pose_noise`` too; ``filter_noise`` gives the
+    filter another one, for a study that mis-models the noise on purpose. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
+    from the prior, §6.2; ``P0_w_prior`` overrides that block's variance) or
+    ``"proxy"`` (also initialises, and pushes the prior as a ``ω`` measurement
+    per ``proxy_mode``, §6.3). ``reacquire_window``: see
+    :func:`estimators.navigation.run_navigation` (``None``: no re-acquisition).
+    """
+    if meas is None:
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                       sigma_r_m=pose_noise.sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
+                                       fault_sigma_r_m=fault_sigma_r_m, noise=pose_noise.model)
+        meas = (m.t, m.q_TS, m.r_ST_T, m.faulty)
+    x0 = initial_guess(tr, rng, inertia_range)
+    P0 = tuning.P_0 if P0 is None else np.asarray(P0, dtype=float)
+    if prior_use in ("init", "proxy"):
+        x0, P0 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
+        if P0_w_prior is not None:
+            P0[3:6, 3:6] = P0_w_prior * np.eye(3)
+    run = run_navigation(
+        filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
+        pose_noise=pose_noise if filter_noise is None else filter_noise,
+        gate_confidence=gate_confidence, gate_start_s=gate_start_s, prior=prior,
+        proxy=proxy_mode if prior_use == "proxy" else None, R_w=R_w, consider=consider,
+        reacquire_window=reacquire_window,
+    )
+    return run, meas
+
+
+def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: int = 30, first_seed: int = 1000,
+                      pose_noise: PoseNoise = PoseNoise(), gate_confidence: float = 0.99, gate_start_s: float = 10.0,
+                      settling_s: float = SETTLING_S, confidence: float = 0.95) -> dict:
+    """NEES, NIS and gate statistics of ``n_runs`` runs on ``tr`` from initial errors drawn from ``N(0, P_0)``.
+
+    Run ``i`` draws from ``default_rng(first_seed + i)`` the measurements
+    (``pose_noise``, also the filter's ``R_d``), then the initial error
+    ``δx ~ N(0, tuning.P_0)``, ``x̂_0 = x ⊞ δx`` — so that the NEES means what it
+    says from the first step (§6's fixed guess ``q = 1, r = 0`` is 50 m off in
+    position against a 1 m ``P_0``). One-axis tumbles consider ``k`` and test
+    12 states. Steps from ``settling_s`` on count (:data:`studies.sim.metrics.SETTLING_S`).
+
+    Returns a flat dict: ``nees_in_band`` (fraction of steps whose ``n_runs``-mean
+    NEES lies in its two-sided ``confidence`` band), ``nees_below``/``nees_above``,
+    ``nees_in_band_from_start`` (the same over every step after ``t[0]``, settling included),
+    ``nees_per_dof`` with its t interval over runs (``_lo``/``_hi``),
+    ``nees_per_dof_worst_run``; per source ``nis_<s>_in_band``, ``nis_<s>_per_dof``
+    (t interval), ``gate_<s>_rejected`` (rate above the one-sided bound, Wilson
+    interval, nominal ``1 − gate_confidence``) and ``nis_<s>_low`` (rate below the
+    lower two-sided bound, nominal ``(1 − gate_confidence)/2``: counted, never rejected).
+    """
+    from scipy.stats import chi2
+
+    from studies.engine.stats import proportion_interval, t_interval
+
+    oa = one_axis(tr.scenario.w_T0_T_rad_s)
+    states = np.arange(12) if oa else np.arange(14)
+    dof = len(states)
+    sel = (tr.t - tr.t[0]) >= settling_s
+    if not sel.any():
+        raise ValueError(f"settling_s ({settling_s} s) must be shorter than the run ({tr.t[-1] - tr.t[0]} s)")
+    E, E_all, nis = [], [], {s: [] for s in SOURCES}
+    for i in range(n_runs):
+        rng = np.random.default_rng(first_seed + i)
+        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                       sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
+        x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(14), tuning.P_0))
+        run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
+                             pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
+                             consider=K_STATES if oa else ())
+        E_all.append(nees(run.x, run.P, tr.x, states)[1:])
+        E.append(E_all[-1][sel[1:]])
+        for s in SOURCES:
+            nis[s].append(run.nis[s][sel])
+    E = np.array(E)
+    lo, hi = chi_square_band(dof, n_runs, confidence)
+    avg = E.mean(axis=0)
+    avg_all = np.mean(E_all, axis=0)
+    per_run = E.mean(axis=1) / dof
+    iv = t_interval(per_run, confidence)
+    out = {"filter": filter_name, "scenario": tr.scenario.name, "tuning": tuning.name, "runs": n_runs, "dof": dof,
+           "settling_s": settling_s, "duration_s": float(tr.t[-1] - tr.t[0]),
+           "nees_in_band": float(np.mean((avg >= lo) & (avg <= hi))), "nees_below": float(np.mean(avg < lo)),
+           "nees_above": float(np.mean(avg > hi)), "nees_in_band_from_start": float(np.mean((avg_all >= lo) & (avg_all <= hi))),
+           "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo,
+           "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(per_run.max())}
+    upper = chi2.ppf(gate_confidence, 3)
+    lower = chi2.ppf(0.5 * (1.0 - gate_confidence), 3)
+    for s in SOURCES:
+        v = np.array(nis[s])
+        ok = np.isfinite(v)
+        out[f"nis_{s}_in_band"] = fraction_in_band(v, 3, confidence=confidence)
+        niv = t_interval(np.nanmean(v, axis=1) / 3.0, confidence)
+        out.update({f"nis_{s}_per_dof": niv.estimate, f"nis_{s}_per_dof_lo": niv.lo, f"nis_{s}_per_dof_hi": niv.hi})
+        for key, k in ((f"gate_{s}_rejected", int(np.sum(v[ok] > upper))), (f"nis_{s}_low", int(np.sum(v[ok] < lower)))):
+            p = proportion_interval(k, int(ok.sum()), confidence)
+            out.update({key: p.estimate, f"{key}_lo": p.lo, f"{key}_hi": p.hi})
+    return out
+
+
+def run_metrics(tr: Truth, run: NavigationRun, thresholds: dict | None = None) -> dict:
+    """§6 metrics as a flat dict: ``ct_<g>_s``/``ess_<g>`` (state based), ``ct_f_<g>_s``/``ess_f_<g>`` (filter based).
+
+    NaN where the group did not converge below its threshold.
+    """
+    m = evaluate(tr.t, run.x, run.P, tr.x, thresholds)
+    out = {}
+    for kind, prefix in (("state", ""), ("filter", "f_")):
+        for g in GROUPS:
+            out[f"ct_{prefix}{g}_s"] = m[kind][g].convergence_time_s
+            out[f"ess_{prefix}{g}"] = m[kind][g].steady_state_rmse
+    return out
+
+
+def error_series(tr: Truth, run: NavigationRun) -> pd.DataFrame:
+    """Per step: ``t_s``, the state-based error magnitude ``err_<g>`` and the filter's 1-σ ``sigma_<g>`` per group."""
+    cols = {"t_s": tr.t - tr.t[0]}
+    cols.update({f"err_{g}": v for g, v in state_errors(run.x, tr.x).items()})
+    cols.update({f"sigma_{g}": v for g, v in filter_sigmas(run.P).items()})
+    return pd.DataFrame(cols)
+
+
+def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, recording_id: str, extra_scalars: dict | None = None) -> None:
+    """``path`` (``.rrd``) in the layout of :mod:`studies.recording.blueprint`, with its viewer layout.
+
+    ``meas``: ``(t, q_TS, r_ST_T, ...)`` as the filter saw them; ``extra_scalars``:
+    ``{entity: (t, values)}`` further series (e.g. ``/measurement/faulty``).
+    """
+    import rerun as rr
+
+    f, t = run.filter, tr.t
+    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
+    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
+                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
+    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
+    with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
+        send_quaternion(rec, f, "q_TS", t, run.x[:, 0:4], tr.x[:, 0:4], QUAT_AXES)
+        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
+        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
+        for name, (sl, esl, axes) in quantities.items():
+            send_truth(rec, name, t, tr.x[:, sl], axes)
+            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
+        tm, qm, rm = meas[:3]
+        send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
+        send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))
+        for s in SOURCES:
+            ok = np.isfinite(run.nis[s])
+            if ok.any():
+                send_scalars(rec, f"/gate/{f}/{s}/e2", t[ok], run.nis[s][ok])
+        by_source = {s: [d for d in run.decisions if d.source == s] for s in SOURCES}
+        for s, ds in by_source.items():
+            if ds:
+                td = np.array([d.t for d in ds])
+                send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
+                send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
+        set_sim_time(rec, 0.0)
+        for d in run.decisions:
+            if not d.accepted:
+                set_sim_time(rec, d.t)
+                rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
+        for t_re, source in run.reacquisitions:
+            set_sim_time(rec, t_re)
+            rec.log(f"/gate/{f}/log", rr.TextLog(f"{source} re-acquired from its last rejected innovations (estimators.reacquisition)", level="INFO"))
+        if run.proxy_used.any():
+            send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
+        for entity, (te, values) in (extra_scalars or {}).items():
+            send_scalars(rec, entity, te, values)
+
+
+# ---- what the filter studies of Renis et al. §6 share: config fields, thresholds, priors, tables, figures
+
+#: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
+COMMON_FIELDS: dict[str, Field] = {
+    "threshold_att_deg": Field("float", "Convergence threshold of the attitude error, deg.", gt=0, default=2.0),
+    "threshold_rate_deg_s": Field("float", "Convergence threshold of the rate error, deg/s.", gt=0, default=2.0),
+    "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
+    "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
+    "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of Renis et al.); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
+    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m; the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_r_m),
+    "noise_model": Field("str", "Pose noise distribution (gaussian: N(0, sigma^2/3 I); isotropic: eq. 34 literally, same covariance, not chi-square).", choices=NOISE_MODELS, default=PoseNoise.model),
+    "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
+    "gate_confidence": Field("float", "Chi-square validation gate confidence per source (Renis et al. §4.3).", gt=0, le=0.999999, default=0.99),
+    "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
+    "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
+    "record": Field("bool", "Write run.rrd (and errors.parquet) for every run.", default=True),
+}
+#: The per-run parameters among :data:`COMMON_FIELDS` (``confidence`` is summary-only).
+COMMON_RUN_FIELDS = tuple(k for k in COMMON_FIELDS if k != "confidence")
+GROUP_LABELS = {"q": "q_TS", "w": "ω_ST", "r": "r_ST", "v": "v_ST", "k": "J_T^k"}
+
+
+def check_common(params: dict) -> None:
+    """``inertia_guess_range`` is ``[lo, hi]`` with ``lo <= hi``."""
+    lo_hi = params["inertia_guess_range"]
+    if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
+        raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+
+
+def pose_noise(params) -> PoseNoise:
+    """The pose noise of a config/run (the measurements' and the filter's)."""
+    return PoseNoise(params["sigma_q_rad"], params["sigma_r_m"], params["noise_model"])
+
+
+def thresholds(params) -> dict:
+    """The convergence thresholds of a config/run, in SI units per group."""
+    return {"q": float(np.radians(params["threshold_att_deg"])), "w": float(np.radians(params["threshold_rate_deg_s"])),
+            "r": float(params["threshold_pos_m"]), "v": float(params["threshold_vel_m_s"]), "k": float(params["threshold_k"])}
+
+
+def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random.Generator) -> SpinPrior:
+    """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3).
+
+    ``direction="along"``: ``(1 + e) ω`` (a light curve's period error);
+    ``"random"``: ``ω + e |ω| u`` with ``u`` uniform on the unit sphere (always drawn, so the stream
+    of ``rng`` does not depend on the choice). 1-σ per axis ``e |ω|``.
+    """
+    u = rng.normal(size=3)
+    u /= np.linalg.norm(u)
+    w = np.asarray(w_T_T_true, dtype=float)
+    if direction == "along":
+        return SpinPrior.from_truth(w, error_fraction)
+    n = float(np.linalg.norm(w))
+    return SpinPrior(w + error_fraction * n * u, np.full(3, error_fraction * max(n, 1e-6)), source=f"truth ± {100 * error_fraction:.1f}% random direction")
+
+
+def median_interval(x, confidence: float = 0.95) -> tuple[float, float, float]:
+    """Median and its distribution-free order-statistic interval; NaN values count as +∞ (did not converge).
+
+    Censored values (a run that never converged) have no number but a rank, so
+    the binomial interval of the median (``scipy.stats.binom``) is used rather
+    than a bootstrap; infinite results are returned as NaN.
+    """
+    from scipy.stats import binom
+
+    v = np.sort(np.where(np.isfinite(np.asarray(x, dtype=float)), np.asarray(x, dtype=float), np.inf))
+    n = v.size
+    if n == 0:
+        return (np.nan, np.nan, np.nan)
+    med = float(np.median(v)) if np.isfinite(np.median(v)) else np.inf
+    a = 0.5 * (1.0 - confidence)
+    j = int(binom.ppf(a, n, 0.5))  # P(B <= j-1) < a: v[j-1] is the lower bound (1-based j)
+    k = n - j
+    lo = float(v[j - 1]) if j >= 1 else -np.inf
+    hi = float(v[k]) if k < n else np.inf
+    fin = lambda z: z if np.isfinite(z) else np.nan  # noqa: E731
+    return fin(med), fin(lo), fin(hi)
+
+
+def metric_tables(runs: pd.DataFrame, arms: list[tuple[str, str]], groups, *, confidence: float, scale_ess: float = 1e3):
+    """Paper-layout tables of §6: median convergence time and steady-state RMSE per (basis, group) × arm.
+
+    ``arms``: ``[(column label, query on runs)]``, e.g. ``("EKF +prior", "filter == 'ekf' and prior")``.
+    Returns ``(convergence, steady_state, stats)``: the first two with one column per arm (medians;
+    a non-converged run counts as +∞, so a median of NaN means most runs did not converge);
+    ``stats`` long: every (basis, group, arm) with runs converged, mean, sd, t interval of the mean
+    over the converged runs, median and its order-statistic interval.
+    """
+    from studies.engine.stats import t_interval
+
+    conv, ess, stats_rows = [], [], []
+    for basis, prefix in (("state", ""), ("filter", "f_")):
+        for g in groups:
+            crow, erow = {"basis": basis, "component": GROUP_LABELS[g]}, {"basis": basis, "component": GROUP_LABELS[g]}
+            for label, query in arms:
+                sub = runs.query(query)
+                for metric, row, scale in ((f"ct_{prefix}{g}_s", crow, 1.0), (f"ess_{prefix}{g}", erow, scale_ess)):
+                    vals = pd.to_numeric(sub[metric], errors="coerce").to_numpy(dtype=float) * scale
+                    med, mlo, mhi = median_interval(vals, confidence)
+                    row[label] = med
+                    iv = t_interval(vals, confidence)
+                    fin = vals[np.isfinite(vals)]
+                    stats_rows.append({"basis": basis, "component": GROUP_LABELS[g], "arm": label,
+                                       "metric": "convergence time (s)" if scale == 1.0 else f"steady-state RMSE (x1e-{int(np.log10(scale_ess))})",
+                                       "runs": len(vals), "converged": int(fin.size), "mean": iv.estimate,
+                                       "sd": float(fin.std(ddof=1)) if fin.size > 1 else np.nan, "mean lo": iv.lo, "mean hi": iv.hi,
+                                       "median": med, "median lo": mlo, "median hi": mhi})
+            conv.append(crow)
+            ess.append(erow)
+    return pd.DataFrame(conv), pd.DataFrame(ess), pd.DataFrame(stats_rows)
+
+
+def read_error_series(out_dir: Path, run_ids) -> dict[str, pd.DataFrame]:
+    """``errors.parquet`` of each run that wrote one (``DIR/runs/<run_id>/errors.parquet``)."""
+    from studies.engine.sweep import run_dir
+
+    out = {}
+    for rid in run_ids:
+        p = run_dir(out_dir, rid) / "errors.parquet"
+        if p.is_file():
+            out[rid] = pd.read_parquet(p)
+    return out
+
+
+def plot_error_bands(ax, series: list[pd.DataFrame], column: str, scale: float, label: str, color: str) -> None:
+    """Median over runs of ``column`` (× ``scale``) against time with the 25–75 % band."""
+    if not series:
+        return
+    t = series[0]["t_s"].to_numpy()
+    n = min(len(s) for s in series)
+    m = np.array([s[column].to_numpy()[:n] for s in series]) * scale
+    ax.plot(t[:n], np.median(m, axis=0), color=color, lw=1.2, label=f"{label} (median of {len(series)})")
+    ax.fill_between(t[:n], np.percentile(m, 25, axis=0), np.percentile(m, 75, axis=0), color=color, alpha=0.25, lw=0)
+
+
+def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tuple[str, str], rows, scenario: str,
+                        shade: tuple[float, float] | None = None) -> None:
+    """Errors against time, one column per filter, the two arms of a paired study overlaid.
+
+    ``arm`` is the boolean column of ``runs`` that tells the arms apart (``prior``,
+    ``proxy``), ``labels`` their legend names (False, True); ``rows`` are
+    ``(group, scale, y label, threshold or None)``; ``shade`` an interval to grey
+    out (a fault window). Median and inter-quartile band over seeds
+    (:func:`plot_error_bands`), log scale; written atomically as PNG.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = read_error_series(path.parent, runs["run_id"])
+    filters = list(dict.fromkeys(runs["filter"]))
+    fig, axes = plt.subplots(len(rows), len(filters), figsize=(4.8 * len(filters), 1.8 * len(rows) + 1.8),
+                             layout="constrained", sharex=True, squeeze=False)
+    for j, f in enumerate(filters):
+        for i, (g, scale, label, thr) in enumerate(rows):
+            ax = axes[i, j]
+            if shade is not None:
+                ax.axvspan(*shade, color="0.85", label="fault window")
+            for value, color in ((False, "tab:blue"), (True, "tab:orange")):
+                ids = runs.query(f"filter == '{f}' and {arm} == {value}")["run_id"]
+                plot_error_bands(ax, [series[r] for r in ids if r in series], f"err_{g}", scale, labels[value], color)
+            if thr is not None:
+                ax.axhline(thr, color="k", ls="--", lw=0.8, label="threshold")
+            ax.set_yscale("log")
+            ax.set_ylabel(label)
+            if i == 0:
+                ax.set_title(f"{f.upper()} — {scenario}")
+            if i == len(rows) - 1:
+                ax.set_xlabel("time (s)")
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)
+
+
+def paired_specs(config, arm: str, run_fields) -> list:
+    """Filters × {without, with ``arm``} × seeds, run ids ``<filter>-<none|arm>-s<index>``.
+
+    Both arms of one seed index share a seed key, so they see the same
+    measurements and initial guess (paired comparisons); ``run_fields`` are the
+    config fields copied into every run's parameters.
+    """
+    from studies.engine.sweep import make_specs
+
+    common = {k: config[k] for k in run_fields}
+    return make_specs(config.seed, (
+        (f"{f}-{arm if on else 'none'}-s{i:03d}", {"filter": f, arm: on, "seed_index": i, **common}, f"s{i:03d}")
+        for f in config["filters"] for on in (False, True) for i in range(config["n_seeds"])
+    ))
