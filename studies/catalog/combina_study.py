@@ -23,7 +23,7 @@ Figures: ``convergence_<target>.png`` (every seed's error and ±3σ per
 component and axis, laid out like Figs 10-11 / 15-16) and ``symmetry.png``
 (the discrepancy between the two principal-angle variation estimates per
 check, with the detector's threshold, like Fig. 14). Each run writes
-``run.rrd`` (:func:`studies.cli.combina.write_recording`) and
+``run.rrd`` (:func:`studies.recording.combina.write_recording`) and
 ``errors.parquet`` (the per-step errors and 1-σ the figures are drawn from).
 """
 

@@ -30,8 +30,9 @@ from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.sim.navigation import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, draw_prior, error_series, median_interval, metric_tables,
-    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, record_navigation, run_metrics, thresholds,
+    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, run_metrics, thresholds,
 )
+from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec
 from studies.engine.tables import Table

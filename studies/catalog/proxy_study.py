@@ -34,8 +34,9 @@ from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.sim.navigation import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, K_STATES, check_common, draw_prior, error_series, median_interval,
-    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, record_navigation,
+    navigate, one_axis, paired_error_figure, paired_specs, pose_noise,
 )
+from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import t_interval
 from studies.engine.sweep import RunSpec

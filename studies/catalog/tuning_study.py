@@ -42,8 +42,9 @@ from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.sim.navigation import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, error_series, metric_tables, navigate, one_axis,
-    pose_noise, record_navigation, run_metrics, thresholds,
+    pose_noise, run_metrics, thresholds,
 )
+from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec, make_specs
 from studies.engine.tables import Table

@@ -17,6 +17,7 @@ from studies.engine import validate as v
 from studies.engine.io import is_complete, write_table
 from studies.engine.sweep import RESULT_FILE
 from studies.recording.reader import RecordingSummary, export_series, summarize_recording
+from studies.recording.writer import TIMELINE
 
 
 def _find_recordings(path: Path) -> tuple[list[Path], Path | None]:

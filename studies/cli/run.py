@@ -39,7 +39,8 @@ from perception.simulated_pose import parse_faults
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
 from studies.sim.metrics import GROUPS, SETTLING_S, UNITS, chi_square_band, evaluate, fraction_in_band, nees
-from studies.sim.navigation import K_STATES, navigate, one_axis, record_navigation
+from studies.sim.navigation import K_STATES, navigate, one_axis
+from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import RELATIVE_COLUMNS, Truth, simulate_truth
 

@@ -196,7 +196,7 @@ def record_run(path: Path, truth: Truth, run, meas, seed: int, name: str) -> Non
     ``name`` (e.g. ``ekf_prior``) tells apart runs of one filter in different
     arms, in the entity paths and in the recording id.
     """
-    from studies.sim.navigation import record_navigation
+    from studies.recording.navigation import record_navigation
 
     record_navigation(path, truth, dataclasses.replace(run, filter=name), meas, recording_id=f"{name}-seed{seed}")
 

@@ -1,4 +1,4 @@
-"""One navigation run as the filter studies and ``lcnav run`` do it: measurements, initial guess, filter, metrics, recording.
+"""One navigation run as the filter studies and ``lcnav run`` do it: measurements, initial guess, filter, metrics.
 
 Shared by ``lcnav run`` (:mod:`studies.cli.run`) and the studies of Renis et al.
 §6 (:mod:`studies.catalog.tuning_study`, :mod:`studies.catalog.init_study`,
@@ -15,8 +15,8 @@ Shared by ``lcnav run`` (:mod:`studies.cli.run`) and the studies of Renis et al.
   filter and tuning from initial errors drawn from its ``P_0``;
 * :func:`error_series` — per-step error magnitude and 1-σ per group, the
   data of the error-vs-time figures (Figs 6 and 7 of Renis et al.);
-* :func:`record_navigation` — the run's ``.rrd`` in the layout of
-  :mod:`studies.recording.blueprint` (truth, estimate, error ±3σ, measurements, gates).
+
+Its recording is :func:`studies.recording.navigation.record_navigation`.
 """
 
 from __future__ import annotations
@@ -27,20 +27,17 @@ import numpy as np
 import pandas as pd
 
 from estimators.dynamics import k_from_inertia
-from estimators.error_state import ERROR_SLICES, boxminus, boxplus
+from estimators.error_state import boxplus
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import SOURCES, NavigationRun, run_navigation
 from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.recording.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
 from studies.engine.config import ConfigError, Field
 from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
-from studies.recording.writer import recording, send_scalars, set_sim_time
 from studies.engine.io import atomic_path
 from studies.sim.truth import Truth
 
-QUAT_AXES = ("0", "1", "2", "3")
 #: Error-state indices of ``k1, k2`` (considered, not estimated, in one-axis tumbles).
 K_STATES = (12, 13)
 
@@ -205,53 +202,6 @@ def error_series(tr: Truth, run: NavigationRun) -> pd.DataFrame:
     cols.update({f"err_{g}": v for g, v in state_errors(run.x, tr.x).items()})
     cols.update({f"sigma_{g}": v for g, v in filter_sigmas(run.P).items()})
     return pd.DataFrame(cols)
-
-
-def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, recording_id: str, extra_scalars: dict | None = None) -> None:
-    """``path`` (``.rrd``) in the layout of :mod:`studies.recording.blueprint`, with its viewer layout.
-
-    ``meas``: ``(t, q_TS, r_ST_T, ...)`` as the filter saw them; ``extra_scalars``:
-    ``{entity: (t, values)}`` further series (e.g. ``/measurement/faulty``).
-    """
-    import rerun as rr
-
-    f, t = run.filter, tr.t
-    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
-    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
-                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
-    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
-    with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
-        send_quaternion(rec, f, "q_TS", t, run.x[:, 0:4], tr.x[:, 0:4], QUAT_AXES)
-        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
-        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
-        for name, (sl, esl, axes) in quantities.items():
-            send_truth(rec, name, t, tr.x[:, sl], axes)
-            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
-        tm, qm, rm = meas[:3]
-        send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
-        send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))
-        for s in SOURCES:
-            ok = np.isfinite(run.nis[s])
-            if ok.any():
-                send_scalars(rec, f"/gate/{f}/{s}/e2", t[ok], run.nis[s][ok])
-        by_source = {s: [d for d in run.decisions if d.source == s] for s in SOURCES}
-        for s, ds in by_source.items():
-            if ds:
-                td = np.array([d.t for d in ds])
-                send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
-                send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
-        set_sim_time(rec, 0.0)
-        for d in run.decisions:
-            if not d.accepted:
-                set_sim_time(rec, d.t)
-                rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
-        for t_re, source in run.reacquisitions:
-            set_sim_time(rec, t_re)
-            rec.log(f"/gate/{f}/log", rr.TextLog(f"{source} re-acquired from its last rejected innovations (estimators.reacquisition)", level="INFO"))
-        if run.proxy_used.any():
-            send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
-        for entity, (te, values) in (extra_scalars or {}).items():
-            send_scalars(rec, entity, te, values)
 
 
 # ---- what the filter studies of Renis et al. §6 share: config fields, thresholds, priors, tables, figures
