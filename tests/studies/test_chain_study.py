@@ -82,7 +82,7 @@ def test_prior_as_initial_condition_starts_the_rate_converged(chain_out):
     (("proxy_duration_s = 300.0", "proxy_duration_s = 200.0"), "field 'proxy_duration_s' must exceed"),
 ])
 def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, message):
-    text = (Path(__file__).resolve().parents[2] / "studies" / "configs" / "chain.toml").read_text()
+    text = (Path(__file__).resolve().parents[2] / "studies" / "catalog" / "configs" / "chain.toml").read_text()
     assert edit[0] in text
     cfg = tmp_path / "chain.toml"
     cfg.write_text(text.replace(edit[0], edit[1]))
