@@ -25,14 +25,15 @@ import pandas as pd
 
 from estimators.navigation import FILTERS
 from estimators.tuning import TUNINGS, get_tuning
+from studies.catalog.filter_common import (
+    COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, draw_prior, median_interval, metric_tables, paired_error_figure,
+    paired_specs, pose_noise, thresholds,
+)
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.sim.navigation import (
-    COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, draw_prior, error_series, median_interval, metric_tables,
-    navigate, one_axis, paired_error_figure, paired_specs, pose_noise, run_metrics, thresholds,
-)
 from studies.recording.navigation import record_navigation
+from studies.sim.navigation import K_STATES, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec
 from studies.engine.tables import Table

@@ -29,14 +29,15 @@ import pandas as pd
 from estimators.navigation import FILTERS, SOURCES
 from estimators.prior import PROXY_MODES
 from estimators.tuning import TUNINGS, get_tuning
+from studies.catalog.filter_common import (
+    COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, check_common, draw_prior, median_interval, paired_error_figure,
+    paired_specs, pose_noise,
+)
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.sim.navigation import (
-    COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, K_STATES, check_common, draw_prior, error_series, median_interval,
-    navigate, one_axis, paired_error_figure, paired_specs, pose_noise,
-)
 from studies.recording.navigation import record_navigation
+from studies.sim.navigation import K_STATES, error_series, navigate, one_axis
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import t_interval
 from studies.engine.sweep import RunSpec

@@ -37,14 +37,12 @@ import pandas as pd
 from estimators.error_state import ERROR_SLICES
 from estimators.navigation import FILTERS
 from estimators.tuning import TUNINGS, Tuning, get_tuning
+from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.sim.navigation import (
-    COMMON_FIELDS, COMMON_RUN_FIELDS, K_STATES, check_common, error_series, metric_tables, navigate, one_axis,
-    pose_noise, run_metrics, thresholds,
-)
 from studies.recording.navigation import record_navigation
+from studies.sim.navigation import K_STATES, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec, make_specs
 from studies.engine.tables import Table
