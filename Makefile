@@ -22,7 +22,7 @@ bench: $(STAMP)
 
 # The README's demo section is the demo's own output (narrative and table), never typed by hand.
 readme: demo
-	$(PY) -m studies.readme_sync runs/demo README.md
+	$(PY) -m studies.engine.readme_sync runs/demo README.md
 
 # Debian packages: libllvm19 (Mitsuba's llvm_* variants need libLLVM >= 16; without it lcnav runs
 # scalar_rgb) and mesa-vulkan-drivers (software Vulkan, so `lcnav inspect --screenshot` can draw a

@@ -2,7 +2,7 @@
 
 Simulated chain: one iteration = registration (the simulated BCPD-like draw)
 + prediction + gates + update of both filters (+ the symmetry check), timed
-inside :func:`studies.combina.run_combina` over 1000 measurement epochs of the
+inside :func:`studies.sim.combina.run_combina` over 1000 measurement epochs of the
 §VI scenario at 0.33 Hz. Baseline measured in the same run: the translational
 UKF alone against filterpy's :class:`~filterpy.kalman.UnscentedKalmanFilter`
 driving the same NERM model and sigma points.
@@ -28,8 +28,8 @@ from lightcurves.targets import get_target
 from perception.measure import measure_pose
 from perception.render import pointing_dcm
 from perception.stereo import stereo_cloud
-from studies.combina import MESH_TARGETS, N_RAD_S, R_T_M, TU, CombinaConfig, run_combina, simulate_lvlh_truth, target_k
-from studies.combina_rendered import RenderedBCPD
+from studies.sim.combina import MESH_TARGETS, N_RAD_S, R_T_M, TU, CombinaConfig, run_combina, simulate_lvlh_truth, target_k
+from studies.sim.combina_rendered import RenderedBCPD
 
 N_ITER = 1000
 RATE_HZ = 0.33
@@ -99,7 +99,7 @@ def run() -> str:
     lines = [
         "## CoMBiNa per-iteration time (simulated chain)",
         "",
-        f"{N_ITER} iterations at {RATE_HZ} Hz of the Maestrini et al. §VI scenario (`studies.combina.run_combina`); times in ms, percentiles as in Fig. 19 of Maestrini et al.",
+        f"{N_ITER} iterations at {RATE_HZ} Hz of the Maestrini et al. §VI scenario (`studies.sim.combina.run_combina`); times in ms, percentiles as in Fig. 19 of Maestrini et al.",
         "One iteration = simulated BCPD-like registration + prediction + gates + update of both filters + symmetry check.",
         "",
         "| chain | p50 | p90 | p99 | p99.9 | max |",

@@ -2,11 +2,11 @@
 
 Not a speed benchmark: it measures whether the filters' covariances tell the
 truth, with the tunings lcnav ships and their default ``P_0``
-(:func:`studies.nav_study.consistency_check`). Per filter × scenario × tuning:
+(:func:`studies.sim.navigation.consistency_check`). Per filter × scenario × tuning:
 30 runs of 300 s at 1 s, initial errors drawn from ``N(0, P_0)``, pose noise
 Gaussian with the filters' own ``R_d`` (:class:`estimators.measurement.PoseNoise`),
 one-sided 99 % gates from 10 s; statistics from the settling time
-(:data:`studies.metrics.SETTLING_S`) on. Criteria of issue 12: NEES and NIS in
+(:data:`studies.sim.metrics.SETTLING_S`) on. Criteria of issue 12: NEES and NIS in
 their 95 % band on ≥ 90 % of the steps, gate rates within 2× nominal.
 
 ``python -m benchmarks consistency`` regenerates the section.
@@ -17,10 +17,10 @@ from __future__ import annotations
 import time
 
 from estimators.tuning import get_tuning
-from studies.metrics import SETTLING_S
-from studies.nav_study import consistency_check
-from studies.scenarios import get_scenario
-from studies.truth import simulate_truth
+from studies.sim.metrics import SETTLING_S
+from studies.sim.navigation import consistency_check
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import simulate_truth
 
 N_RUNS = 30
 DURATION_S = 300.0

@@ -1,7 +1,7 @@
 """CoMBiNa coverage against tumbling rate (Maestrini et al. §VII, Fig. 20): the full ``lcnav study coverage``, table and figure.
 
 ``python -m benchmarks coverage`` runs the study with its default config
-(``studies/configs/coverage.toml``: levels 0.15 … 1.5 rad/s, 30 initial
+(``studies/catalog/configs/coverage.toml``: levels 0.15 … 1.5 rad/s, 30 initial
 conditions each) on 2 local workers, copies its ``coverage.png`` (Fig. 20 with
 Wilson intervals) to ``benchmarks/coverage.png`` and returns the summary table
 as this section. ``lcnav study coverage --out DIR`` gives the same table and
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from studies.study_cmd import run_study
-from studies.tables import to_markdown
+from studies.engine.registry import run_study
+from studies.engine.tables import to_markdown
 
 HERE = Path(__file__).resolve().parent
 

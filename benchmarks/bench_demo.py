@@ -11,8 +11,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from studies.demo import QUICK, DemoConfig, run_demo
-from studies.study_cmd import run_study
+from studies.catalog.demo import QUICK, DemoConfig, run_demo
+from studies.engine.registry import run_study
 
 GOAL_S = 300.0
 

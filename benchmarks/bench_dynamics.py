@@ -11,8 +11,8 @@ import time
 import numpy as np
 
 from estimators.dynamics import integrate_absolute, propagate_relative, propagate_relative_batch, relative_rhs
-from studies.scenarios import get_scenario
-from studies.truth import initial_states, simulate_truth
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import initial_states, simulate_truth
 
 
 def _best(fn, repeat: int = 5) -> float:

@@ -19,8 +19,8 @@ from estimators.navigation import make_filter, run_navigation
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.scenarios import get_scenario
-from studies.truth import simulate_truth
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import simulate_truth
 
 
 def _per_step(name: str, tr, meas, tun, n: int, gate) -> tuple[float, float, float]:

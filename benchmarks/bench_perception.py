@@ -26,7 +26,7 @@ def _bcpd_rows() -> list[str]:
     from lightcurves.targets import get_target
     from perception.bcpd import bcpd_rigid
     from perception.model import mesh_surface_points
-    from studies.perception_cmd import registration_trial
+    from studies.sim.frames import registration_trial
 
     tgt = get_target("box-wing")
     rows = [
@@ -76,7 +76,7 @@ def _bcpd_rows() -> list[str]:
 
 def _gamma_rows() -> list[str]:
     """Initial σ² (Hirose's γ) in measure_pose on rendered one-sided views of the rocket body."""
-    from studies.perception_cmd import frame_pipeline
+    from studies.sim.frames import frame_pipeline
 
     rows = ["| gamma | frames | median axis err. deg | max axis err. deg | median pos. err. mm | max pos. err. mm | median BCPD ms |", "|---|---|---|---|---|---|---|"]
     cases = [(35.0 + 5.0 * (seed % 3), seed) for seed in range(1, 9)]

@@ -14,9 +14,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from studies.config import default_config_path, read_toml
-from studies.study_cmd import run_study
-from studies.sweep import dask_client
+from studies.engine.config import default_config_path, read_toml
+from studies.engine.registry import run_study
+from studies.engine.sweep import dask_client
 
 
 def _timed(quick: bool, workers: int, root: Path):
@@ -92,7 +92,7 @@ def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
     return "\n".join(lines)
 
 
-#: The filter studies of Renis et al. §6 (their --quick sizes are set in studies/configs/<name>.toml).
+#: The filter studies of Renis et al. §6 (their --quick sizes are set in studies/catalog/configs/<name>.toml).
 FILTER_STUDIES = ("tuning", "init", "proxy")
 
 

@@ -18,7 +18,7 @@ rejecting it throws away the best data (in the demo's ``ekf_prior`` run, 24 of
 41 rejections of the two-sided gate were below the lower bound, because a
 conservative tuning inflates ``S``). A too-small NIS says the filter is
 conservative; that is a consistency diagnostic (the NIS band of
-:mod:`studies.metrics`), not a reason to drop data. The two-sided bounds stay
+:mod:`studies.sim.metrics`), not a reason to drop data. The two-sided bounds stay
 available for such counting.
 """
 

@@ -94,7 +94,7 @@ def simulate_pose_measurements(
     one sampling time after ``t[0]``, the first filter update) to ``t[-1]``;
     those instants must be on the truth grid (to 1e-9 s). The amplitudes and
     ``noise`` are those of a :class:`~estimators.measurement.PoseNoise`, from
-    which the filters take their ``R_d`` (:func:`studies.nav_study.navigate`
+    which the filters take their ``R_d`` (:func:`studies.sim.navigation.navigate`
     passes one object to both). The default ``noise="isotropic"`` is eq. 34
     read literally.
     """

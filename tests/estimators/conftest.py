@@ -5,8 +5,8 @@ import functools
 import numpy as np
 import pytest
 
-from studies.scenarios import get_scenario
-from studies.truth import simulate_truth
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import simulate_truth
 
 
 @functools.lru_cache(maxsize=8)
@@ -16,7 +16,7 @@ def _truth(name: str, duration_s: float, dt_s: float = 1.0):
 
 @pytest.fixture(scope="session")
 def truth():
-    """``truth(name, duration_s, dt_s=1.0)`` -> :class:`studies.truth.Truth`, cached."""
+    """``truth(name, duration_s, dt_s=1.0)`` -> :class:`studies.sim.truth.Truth`, cached."""
     return _truth
 
 

@@ -45,7 +45,7 @@ from estimators.navigation import run_navigation
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.metrics import fraction_in_band, nees
+from studies.sim.metrics import fraction_in_band, nees
 
 NOISE = PoseNoise(model="gaussian")
 N_RUNS = 30
@@ -139,7 +139,7 @@ N_DEFAULT, DURATION_DEFAULT_S = 30, 120.0
 @pytest.fixture(scope="module")
 def default_p0_runs(truth):
     from estimators.tuning import get_tuning
-    from studies.nav_study import consistency_check
+    from studies.sim.navigation import consistency_check
 
     cache = {}
 
@@ -152,7 +152,7 @@ def default_p0_runs(truth):
     return get
 
 
-#: The tuning ``lcnav run`` uses without a prior (studies.run_cmd).
+#: The tuning ``lcnav run`` uses without a prior (studies.cli.run).
 DEFAULT_TUNING = "settled"
 
 

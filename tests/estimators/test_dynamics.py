@@ -5,8 +5,8 @@ import pytest
 
 from estimators import dynamics as dyn
 from estimators.attitude import attitude_angle, quat_to_dcm
-from studies.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
-from studies.truth import initial_states, simulate_truth
+from studies.sim.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
+from studies.sim.truth import initial_states, simulate_truth
 
 
 def test_inertia_parametrisation_round_trip():

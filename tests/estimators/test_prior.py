@@ -11,8 +11,8 @@ from estimators.prior import SpinPrior, initialize_with_prior, prior_from_rate, 
 from estimators.measurement import PoseNoise
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from studies.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
-from studies.scenarios import get_scenario
+from studies.sim.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
+from studies.sim.scenarios import get_scenario
 
 
 def test_prior_needs_a_rate_and_a_positive_sigma():

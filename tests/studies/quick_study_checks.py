@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from studies.cli import main
-from studies.inspect_cmd import TIME_COLUMN
+from studies.recording.reader import TIME_COLUMN
 from tests.rerun_cli import assert_rrd_verifies
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.inspect_cmd import export_series
+from studies.recording.reader import export_series
 from tests.rerun_cli import assert_rrd_verifies
 
 ARMS = ("none", "tuning", "init")
@@ -82,7 +82,7 @@ def test_prior_as_initial_condition_starts_the_rate_converged(chain_out):
     (("proxy_duration_s = 300.0", "proxy_duration_s = 200.0"), "field 'proxy_duration_s' must exceed"),
 ])
 def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, message):
-    text = (Path(__file__).resolve().parents[2] / "studies" / "configs" / "chain.toml").read_text()
+    text = (Path(__file__).resolve().parents[2] / "studies" / "catalog" / "configs" / "chain.toml").read_text()
     assert edit[0] in text
     cfg = tmp_path / "chain.toml"
     cfg.write_text(text.replace(edit[0], edit[1]))
@@ -95,8 +95,8 @@ def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, 
 
 def test_a_filter_breakdown_is_counted_not_fatal(tmp_path):
     """A run whose filter raised (P not positive definite) counts as failed and not converged in the summary."""
-    from studies.chain_study import summarise
-    from studies.study_cmd import get_study
+    from studies.catalog.chain_study import summarise
+    from studies.engine.registry import get_study
 
     config = get_study("chain").load(quick=True)
     base = {"experiment": "init", "scenario": "SC3", "lc_truth_rate_deg_s": 2.82, "prior_significant": True, "lc_rate_deg_s": 2.83,

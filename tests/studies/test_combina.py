@@ -11,7 +11,7 @@ import pytest
 from estimators.dynamics import integrate_truth, nerm_rhs
 from scipy.stats import chi2
 
-from studies.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, filter_nees, run_combina, run_metrics, simulate_lvlh_truth
+from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, filter_nees, run_combina, run_metrics, simulate_lvlh_truth
 
 SEEDS = range(10)
 DT = 1.0 / 0.33

@@ -14,7 +14,7 @@ import pytest
 
 from quick_study_checks import PNG, run_quick
 from studies.cli import main
-from studies.combina_study import COMPONENTS
+from studies.catalog.combina_study import COMPONENTS
 from tests.rerun_cli import assert_rrd_verifies
 
 

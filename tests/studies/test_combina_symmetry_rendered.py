@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from estimators.symmetry import RollSymmetryTest
-from studies.combina import ROLL_WINDOW, CombinaConfig, run_combina
+from studies.sim.combina import ROLL_WINDOW, CombinaConfig, run_combina
 
 pytestmark = pytest.mark.slow
 

@@ -6,8 +6,8 @@ import sys
 import pytest
 
 from studies.cli import main
-from studies.config import CONFIG_DIR, COMMON_FIELDS, ConfigError, Field, validate_config
-from studies.study_cmd import STUDIES
+from studies.engine.config import CONFIG_DIR, COMMON_FIELDS, ConfigError, Field, validate_config
+from studies.engine.registry import STUDIES
 
 GOOD = """study = "truth"
 seed = 3

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy.stats import chi2
 
-from studies.coverage_study import converged_last
+from studies.catalog.coverage_study import converged_last
 from quick_study_checks import run_quick
 from test_combina_study import assert_study_outputs
 
@@ -64,8 +64,8 @@ def test_coverage_at_two_levels_within_a_binomial_bound(tmp_path):
     """
     from scipy.stats import binom
 
-    from studies.coverage_study import execute
-    from studies.sweep import make_specs
+    from studies.catalog.coverage_study import execute
+    from studies.engine.sweep import make_specs
 
     common = {"measurement_rate_hz": 0.33, "horizon_orbits": 0.03, "k_range": [-1.5, 1.5], "n_last": 10,
               "converged_confidence": 0.99, "record": False}

@@ -9,7 +9,7 @@ import pytest
 
 from lightcurves.io import read_lightcurve
 from studies.cli import main
-from studies.inspect_cmd import export_series
+from studies.recording.reader import export_series
 from tests.rerun_cli import assert_rrd_verifies
 
 RUNS = ("ekf", "ekf_prior", "ukf", "ukf_prior")
@@ -76,7 +76,7 @@ def test_prior_starts_the_filters_at_the_light_curve_rate(demo_out):
 
 
 def test_readme_demo_block_is_the_demo_output_and_has_its_columns(demo_out, tmp_path):
-    from studies.readme_sync import BEGIN, END, demo_block, markdown_table, splice
+    from studies.engine.readme_sync import BEGIN, END, demo_block, markdown_table, splice
 
     block = demo_block(demo_out)
     narrative = (demo_out / "narrative.txt").read_text()

@@ -51,14 +51,14 @@ def sentinel(name):
 
 
 SENTINELS = {
-    "studies.simulate_cmd.simulate_truth": "truth",
-    "studies.run_cmd.simulate_truth": "run-truth",
-    "studies.combina_cmd.run_combina": "combina",
+    "studies.cli.simulate.simulate_truth": "truth",
+    "studies.cli.run.simulate_truth": "run-truth",
+    "studies.cli.combina.run_combina": "combina",
     "lightcurves.render.UnresolvedRenderer": "renderer",
-    "studies.perception_cmd.frame_pipeline": "frames",
-    "studies.perception_cmd.bench_registration": "bench",
-    "studies.study_cmd.run_sweep": "sweep",
-    "studies.demo.render_prior": "demo",
+    "studies.cli.perception.frame_pipeline": "frames",
+    "studies.cli.perception.bench_registration": "bench",
+    "studies.engine.registry.run_sweep": "sweep",
+    "studies.catalog.demo.render_prior": "demo",
 }
 
 
@@ -327,7 +327,7 @@ TRUTH_FIELDS = ["seed", "scenarios", "n_seeds", "duration_s", "dt_s", "rk4_dt_s"
 @SETTINGS
 @given(field=st.sampled_from(TRUTH_FIELDS), value=toml_values, quick=st.booleans(), garbage=st.one_of(st.none(), st.binary(max_size=200)))
 def test_study_config_toml(field, value, quick, garbage):
-    from studies.config import default_config_path
+    from studies.engine.config import default_config_path
 
     text = default_config_path("truth").read_text()
     lines = [ln for ln in text.splitlines() if not ln.startswith(f"{field} =")]

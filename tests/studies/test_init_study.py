@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from quick_study_checks import check_outputs, check_recordings, run_quick
-from studies.nav_study import median_interval
+from studies.catalog.filter_common import median_interval
 
 
 @pytest.fixture(scope="module")

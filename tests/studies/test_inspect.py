@@ -6,9 +6,9 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.inspect_cmd import TIME_COLUMN, export_series, summarize_recording
-from studies.truth import simulate_truth
-from studies.truth_study import perturbed_scenario
+from studies.recording.reader import TIME_COLUMN, export_series, summarize_recording
+from studies.sim.truth import simulate_truth
+from studies.catalog.truth_study import perturbed_scenario
 from tests.rerun_cli import assert_rrd_verifies
 
 

@@ -6,7 +6,7 @@ from scipy.stats import chi2
 
 from estimators.attitude import rotvec_to_quat
 from estimators.error_state import boxplus
-from studies import metrics as M
+from studies.sim import metrics as M
 
 
 def test_convergence_time_is_when_it_stays_below():

@@ -9,12 +9,12 @@ from types import SimpleNamespace
 import numpy as np
 
 from lightcurves.prior import extract_spin_prior
-from studies.inspect_cmd import _open_store, export_series
-from studies.lightcurve_recording import write_lightcurve_recording
-from studies.perception_recording import write_frame_recording
-from studies.scenarios import get_scenario
-from studies.truth import simulate_truth
-from studies.truth_recording import record_truth
+from studies.recording.reader import _open_store, export_series
+from studies.recording.lightcurve import write_lightcurve_recording
+from studies.recording.perception import write_frame_recording
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import simulate_truth
+from studies.recording.truth import record_truth
 from tests.lightcurves.test_lc_io_cli import make_lc
 from tests.rerun_cli import assert_rrd_verifies, blueprint_views
 

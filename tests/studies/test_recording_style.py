@@ -7,9 +7,9 @@ from hypothesis.extra.numpy import arrays
 from rerun.chunk import RrdReader
 
 from estimators.attitude import quat_multiply
-from studies.blueprint import SIGMA_RGBA, hemisphere_continuous, run_blueprint, send_estimate, send_quaternion, send_truth
-from studies.inspect_cmd import export_series
-from studies.recording import recording
+from studies.recording.blueprint import SIGMA_RGBA, hemisphere_continuous, run_blueprint, send_estimate, send_quaternion, send_truth
+from studies.recording.reader import export_series
+from studies.recording.writer import recording
 from tests.rerun_cli import assert_rrd_verifies
 
 

@@ -15,10 +15,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies import io as sio
-from studies import sweep
+from studies.engine import io as sio
+from studies.engine import sweep
 from studies.cli import main
-from studies.config import default_config_path
+from studies.engine.config import default_config_path
 
 
 def run_cli(capsys, argv):
@@ -217,7 +217,7 @@ def test_study_json_not_written_before_unreachable_scheduler(tmp_path, capsys, m
 
 
 def test_render_leaves_no_ecsv_when_the_recording_fails(tmp_path, capsys, monkeypatch):
-    from studies import lightcurve_cmd
+    from studies.cli import lightcurve as lightcurve_cmd
 
     def broken(*args, **kwargs):
         raise OSError(28, "No space left on device", str(tmp_path / "lc.rrd"))
@@ -231,7 +231,7 @@ def test_render_leaves_no_ecsv_when_the_recording_fails(tmp_path, capsys, monkey
 
 
 def test_failure_while_writing_keeps_the_old_folder_whole(tmp_path, capsys, monkeypatch):
-    from studies import simulate_cmd
+    from studies.cli import simulate as simulate_cmd
 
     out = tmp_path / "out"
     assert main(["simulate", "--duration", "10", "--out", str(out)]) == 0
@@ -320,7 +320,7 @@ def test_lock_holds_across_processes(tmp_path, capsys, lcnav_env):
 
     out = tmp_path / "out"
     out.mkdir()
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from pathlib import Path; from studies.io import folder_lock\n"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from pathlib import Path; from studies.engine.io import folder_lock\n"
                                "with folder_lock(Path(sys.argv[1])):\n    print('locked', flush=True); time.sleep(60)", str(out)],
                               stdout=subprocess.PIPE, text=True, env=lcnav_env)
     try:

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.scenarios import get_scenario
+from studies.sim.scenarios import get_scenario
 from tests.rerun_cli import assert_rrd_verifies, rerun
 
 
@@ -113,9 +113,9 @@ def test_navigate_draws_and_filters_with_one_pose_noise():
     """``navigate`` simulates with ``pose_noise`` and gives the filter the same ``R_d`` (unless told to mis-model)."""
     from estimators.measurement import PoseNoise
     from estimators.tuning import get_tuning
-    from studies.nav_study import navigate
-    from studies.scenarios import get_scenario
-    from studies.truth import simulate_truth
+    from studies.sim.navigation import navigate
+    from studies.sim.scenarios import get_scenario
+    from studies.sim.truth import simulate_truth
 
     tr = simulate_truth(get_scenario("SC1"), 400.0, 1.0)
     noise = PoseNoise(0.03, 1.2, "gaussian")

@@ -4,9 +4,9 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from studies.blueprint import COMPONENT_RGB, run_blueprint, send_estimate, send_truth
-from studies.recording import recording
-from studies.screenshot import screenshot_recording
+from studies.recording.blueprint import COMPONENT_RGB, run_blueprint, send_estimate, send_truth
+from studies.recording.writer import recording
+from studies.recording.screenshot import screenshot_recording
 
 
 def pixels_near(image: np.ndarray, rgb, tol: int = 30) -> int:

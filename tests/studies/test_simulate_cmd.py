@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.truth_recording import equivalent_box_half_sizes
+from studies.recording.truth import equivalent_box_half_sizes
 from tests.rerun_cli import assert_rrd_verifies
 
 

@@ -6,11 +6,11 @@ import pandas as pd
 import pytest
 from scipy import stats as sps
 
-from studies.blueprint import run_blueprint, send_estimate, send_truth
-from studies.inspect_cmd import export_series
-from studies.recording import recording
-from studies.stats import bootstrap_interval, describe, proportion_interval, t_interval
-from studies.tables import Table, to_markdown, write_tables
+from studies.recording.blueprint import run_blueprint, send_estimate, send_truth
+from studies.recording.reader import export_series
+from studies.recording.writer import recording
+from studies.engine.stats import bootstrap_interval, describe, proportion_interval, t_interval
+from studies.engine.tables import Table, to_markdown, write_tables
 from tests.rerun_cli import assert_rrd_verifies, blueprint_views
 
 

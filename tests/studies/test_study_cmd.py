@@ -6,9 +6,9 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.config import default_config_path, read_toml
-from studies.study_cmd import STUDIES, run_study
-from studies.sweep import ELAPSED_COLUMN, run_seed
+from studies.engine.config import default_config_path, read_toml
+from studies.engine.registry import STUDIES, run_study
+from studies.engine.sweep import ELAPSED_COLUMN, run_seed
 
 
 def test_runs_table_has_one_row_per_run_with_derived_seeds(quick_truth):

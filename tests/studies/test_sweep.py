@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 
 from studies.cli import main
-from studies.inspect_cmd import export_series
-from studies.sweep import ELAPSED_COLUMN, RESULT_FILE, dask_client, make_specs, run_seed
+from studies.recording.reader import export_series
+from studies.engine.sweep import ELAPSED_COLUMN, RESULT_FILE, dask_client, make_specs, run_seed
 
 DASK = Path(sys.executable).with_name("dask")
 

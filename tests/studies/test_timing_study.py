@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies.timing_study import iterations_per_seed
+from studies.catalog.timing_study import iterations_per_seed
 from quick_study_checks import run_quick
 from test_combina_study import assert_study_outputs
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from quick_study_checks import check_outputs, check_recordings, run_quick
-from studies.config import default_config_path, read_toml
+from studies.engine.config import default_config_path, read_toml
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,176 @@
+"""Study ``coverage``: CoMBiNa convergence against the target's tumbling rate (Maestrini et al. §VII, Fig. 20).
+
+As in the paper: for each tumbling-rate level ``|ω_T|`` (rad/s), random
+initial conditions draw the target's inertia ratios ``k1, k2`` uniformly in
+``k_range``, its attitude ``σ_T`` uniformly (:func:`random_quaternion`) and the
+direction of ``ω_T`` uniformly on the sphere; the chaser
+measures the target's pose at ``measurement_rate_hz`` (0.33 Hz, the rate the
+timing study allows) with the simulated BCPD-like source, for
+``horizon_orbits`` of the chaser's orbit (half an orbit). A run has
+*converged* when, at each of its last ``n_last`` measurement epochs, the
+normalised estimation error squared ``eᵀ P⁻¹ e`` of every active filter
+(translation, 6 states; attitude, 8 states, or the axisymmetric filter, 3
+states, if the run switched) lies below the ``converged_confidence`` quantile
+of its χ² distribution (:func:`studies.combina.filter_nees`) — "the errors of
+the last 10 time steps have a probability of at least 99%". A filter that
+breaks down numerically (a covariance that is no longer positive definite)
+has not converged; such runs are counted as ``diverged``.
+
+Units: the paper's Fig. 20 axis reads "Hz", but its coverage drop sits where
+the target turns π between two 0.33 Hz measurements (π × 0.33 = 1.04 rad/s),
+so its levels 0.15 … 1.5 are rad/s; they are used as such here.
+
+The summary is Fig. 20 with intervals: per level, the converged fraction with
+its Wilson interval (:func:`studies.stats.proportion_interval`), drawn as
+``coverage.png``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.stats import chi2
+
+from estimators.attitude import attitude_angle, mrp_to_quat, random_quaternion
+from studies.sim.combina import TU, CombinaConfig, filter_nees, run_combina, simulate_lvlh_truth
+from studies.recording.combina import write_recording
+from studies.engine.config import ConfigError, Field, StudyConfig
+from studies.engine.io import atomic_path
+from studies.engine.stats import proportion_interval
+from studies.engine.sweep import RunSpec, make_specs
+from studies.engine.tables import Table
+
+TITLE = "CoMBiNa coverage against tumbling rate (Maestrini et al. §VII, Fig. 20)"
+
+FIELDS: dict[str, Field] = {
+    "rate_levels_rad_s": Field("list[float]", "Tumbling-rate levels |ω_T|, rad/s.", gt=0),
+    "n_initial_conditions": Field("int", "Random initial conditions per level.", ge=1),
+    "measurement_rate_hz": Field("float", "Pose measurement rate, Hz.", gt=0),
+    "horizon_orbits": Field("float", "Simulated time per run, in chaser orbits (2π TU).", gt=0),
+    "k_range": Field("list[float]", "[low, high] of the uniform draw of k1 and k2.", min_len=2),
+    "n_last": Field("int", "Converged: the NEES of the last n_last epochs pass the test.", ge=1),
+    "converged_confidence": Field("float", "Probability of the chi-square test of the NEES.", gt=0, le=0.9999),
+    "confidence": Field("float", "Confidence level of the Wilson intervals.", gt=0, le=0.999, default=0.95),
+    "record": Field("bool", "Write run.rrd for every run that did not break down.", default=False),
+}
+
+_RUN_FIELDS = ("measurement_rate_hz", "horizon_orbits", "k_range", "n_last", "converged_confidence", "record")
+
+
+def check(params: dict) -> None:
+    """``k_range`` is ``[low, high]`` with ``low < high``; a run has at least ``n_last`` measurements."""
+    k = params["k_range"]
+    if len(k) != 2 or not k[0] < k[1]:
+        raise ConfigError(f"field 'k_range' must be [low, high] with low < high, got {k}")
+    n = int(np.floor(params["horizon_orbits"] * 2 * np.pi * TU * params["measurement_rate_hz"]))
+    if n < params["n_last"]:
+        raise ConfigError(f"field 'horizon_orbits' gives {n} measurements per run, fewer than n_last = {params['n_last']}")
+
+
+def expand(config: StudyConfig) -> list[RunSpec]:
+    """Levels × initial conditions; run ids ``w<level>rads-ic<index>``."""
+    common = {k: config[k] for k in _RUN_FIELDS}
+    return make_specs(config.seed, ((f"w{w:.3f}rads-ic{i:03d}", {"rate_level_rad_s": w, "ic_index": i, **common})
+                                    for w in config["rate_levels_rad_s"] for i in range(config["n_initial_conditions"])))
+
+
+def converged_last(nees: dict, t_last_s: float, confidence: float) -> dict[str, bool]:
+    """Per filter active at epochs ``>= t_last_s``: every NEES there is below the χ²(dof) ``confidence`` quantile.
+
+    A filter with no epoch in that window (the attitude filter after a switch to
+    the axisymmetric one) is left out.
+    """
+    out = {}
+    for name, (t, e, dof) in nees.items():
+        last = e[t >= t_last_s - 1e-9]
+        if last.size:
+            out[name] = bool(np.all(last <= chi2.ppf(confidence, dof)))
+    return out
+
+
+def execute(spec: RunSpec, workdir: Path) -> dict:
+    """One random initial condition at one tumbling rate; the convergence test of §VII."""
+    p = spec.params
+    rng = np.random.default_rng(spec.seed)
+    k = rng.uniform(*p["k_range"], size=2)
+    q_IT0 = random_quaternion(rng)
+    direction = rng.normal(size=3)
+    w_T0 = p["rate_level_rad_s"] * direction / np.linalg.norm(direction)
+    cfg = CombinaConfig(target="asymmetric", duration_tu=p["horizon_orbits"] * 2 * np.pi, rate_hz=p["measurement_rate_hz"],
+                        seed=int(rng.integers(2**62)))
+    cfg.validate()  # a bad configuration is an error, not a divergence
+    t = cfg.epochs_s()
+    truth = simulate_lvlh_truth("asymmetric", t[-1], t[1] - t[0], k=k, q_IT0=q_IT0, w_T0_rad_s=w_T0)
+    out = {"k1": float(k[0]), "k2": float(k[1]), "rate_rad_s": float(np.linalg.norm(w_T0)),
+           "rotation_per_measurement_deg": float(np.rad2deg(np.linalg.norm(w_T0) / cfg.rate_hz)), "n_steps": int(t.size)}
+    try:
+        run = run_combina(cfg, truth=truth)
+    except (np.linalg.LinAlgError, ValueError) as e:  # the UKF's covariance lost positive definiteness
+        return {**out, "diverged": True, "failure": f"{type(e).__name__}: {e}", "converged": False,
+                "symmetry_detected": False, "translation_ok": False, "attitude_ok": False}
+    ok = converged_last(filter_nees(run), t[-p["n_last"]], p["converged_confidence"])
+    last = run.steps[-1]
+    out.update({
+        "diverged": False, "failure": "", "converged": all(ok.values()),
+        "symmetry_detected": run.switch_time_s is not None,
+        "translation_ok": ok["translation"], "attitude_ok": ok.get("axisymmetric", ok.get("attitude", False)),
+        "final_position_error_m": float(np.linalg.norm(last.x_s[:3] - truth.r_L[-1])),
+        "final_attitude_error_deg": float(np.rad2deg(attitude_angle(mrp_to_quat(last.x_a[:3]), truth.q_IT[-1]))) if last.mode == "nominal" else None,
+        "final_rate_error_rad_s": float(np.linalg.norm(last.x_a[3:6] - truth.w_T[-1])) if last.mode == "nominal" else None,
+    })
+    if p["record"]:
+        write_recording(workdir / "run.rrd", run, recording_id=f"coverage-{spec.run_id}")
+    return out
+
+
+def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Table]:
+    """Per rate level: converged fraction with its Wilson interval, divergences, symmetry switches (Fig. 20)."""
+    conf = config["confidence"]
+    pct = int(round(100 * conf))
+    rows = []
+    for w, sub in runs.groupby("rate_level_rad_s", sort=True):
+        conv = sub["converged"].astype(bool)
+        iv = proportion_interval(int(conv.sum()), len(sub), conf)
+        rows.append({
+            "tumbling rate (rad/s)": w, "rotation per measurement (deg)": float(sub["rotation_per_measurement_deg"].iloc[0]),
+            "runs": len(sub), "converged runs": int(conv.sum()), "converged": iv.estimate, f"{pct}% lo": iv.lo, f"{pct}% hi": iv.hi,
+            "translation passed": float(sub["translation_ok"].astype(bool).mean()), "attitude passed": float(sub["attitude_ok"].astype(bool).mean()),
+            "diverged": int(sub["diverged"].astype(bool).sum()), "false symmetry switches": int(sub["symmetry_detected"].astype(bool).sum()),
+            "median run (s)": float(sub["elapsed_s"].median()),
+        })
+    summary = pd.DataFrame(rows)
+    notes = (
+        f"{config['n_initial_conditions']} random initial conditions per level (k1, k2 ~ U{tuple(config['k_range'])}, uniform attitude, "
+        f"uniform direction of ω), simulated pose measurements at {config['measurement_rate_hz']:g} Hz for {config['horizon_orbits']:g} "
+        f"chaser orbit(s). Converged: the NEES of every active filter at each of the last {config['n_last']} epochs is below the "
+        f"{config['converged_confidence']:.0%} χ² quantile. Wilson {pct}% intervals. Diverged: the UKF covariance lost positive "
+        "definiteness (counted as not converged)."
+    )
+    plot_coverage(summary, pct, out_dir / "coverage.png")
+    return [Table("summary", TITLE, summary, notes, formats={"converged": ".0%", "translation passed": ".0%", "attitude passed": ".0%"},
+                  default_format=".3g")]
+
+
+def plot_coverage(summary: pd.DataFrame, pct: int, path: Path) -> None:
+    """Fig. 20: converged fraction per tumbling-rate level as bars with Wilson intervals."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 3.6), layout="constrained")
+    x = np.arange(len(summary))
+    frac = summary["converged"].to_numpy()
+    err = np.vstack([frac - summary[f"{pct}% lo"].to_numpy(), summary[f"{pct}% hi"].to_numpy() - frac])
+    ax.bar(x, 100 * frac, color="tab:blue", alpha=0.8, label="converged runs")
+    ax.errorbar(x, 100 * frac, yerr=100 * err, fmt="none", ecolor="k", capsize=3, label=f"Wilson {pct}% interval")
+    for xi, (n, k) in enumerate(zip(summary["runs"], summary["converged runs"])):
+        ax.text(xi, 102, f"{k}/{n}", ha="center", fontsize=7, color="tab:red")
+    ax.set(xticks=x, xticklabels=[f"{w:g}" for w in summary["tumbling rate (rad/s)"]], xlabel="tumbling rate |ω| (rad/s)", ylabel="converged (%)",
+           ylim=(0, 112), title="CoMBiNa coverage against tumbling rate (Maestrini et al. Fig. 20 analogue)")
+    ax.legend(fontsize=7, loc="lower left")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)

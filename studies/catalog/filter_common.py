@@ -1,0 +1,208 @@
+"""What the filter studies of Renis et al. §6 share (:mod:`studies.catalog.tuning_study`,
+:mod:`studies.catalog.init_study`, :mod:`studies.catalog.proxy_study`): config fields, thresholds,
+priors, tables, figures. One run of them is :func:`studies.sim.navigation.navigate`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.prior import SpinPrior
+from studies.engine.config import ConfigError, Field
+from studies.engine.io import atomic_path
+
+
+#: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
+COMMON_FIELDS: dict[str, Field] = {
+    "threshold_att_deg": Field("float", "Convergence threshold of the attitude error, deg.", gt=0, default=2.0),
+    "threshold_rate_deg_s": Field("float", "Convergence threshold of the rate error, deg/s.", gt=0, default=2.0),
+    "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
+    "threshold_vel_m_s": Field("float", "Convergence threshold of the velocity error, m/s.", gt=0, default=0.1),
+    "threshold_k": Field("float", "Convergence threshold of the inertia-ratio error.", gt=0, default=0.2),
+    "sigma_q_rad": Field("float", "Pose attitude noise amplitude sigma_q, rad (eq. 34 of Renis et al.); the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_q_rad),
+    "sigma_r_m": Field("float", "Pose position noise amplitude sigma_r, m; the measurements' and the filter's R_d.", gt=0, default=PoseNoise.sigma_r_m),
+    "noise_model": Field("str", "Pose noise distribution (gaussian: N(0, sigma^2/3 I); isotropic: eq. 34 literally, same covariance, not chi-square).", choices=NOISE_MODELS, default=PoseNoise.model),
+    "inertia_guess_range": Field("list[float]", "Initial inertia guess J_T * U(lo, hi) per axis: [lo, hi].", gt=0, min_len=2, default=[0.7, 1.3]),
+    "gate_confidence": Field("float", "Chi-square validation gate confidence per source (Renis et al. §4.3).", gt=0, le=0.999999, default=0.99),
+    "gate_start_s": Field("float", "The gates test measurements from this time on, s.", ge=0, default=10.0),
+    "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
+    "record": Field("bool", "Write run.rrd (and errors.parquet) for every run.", default=True),
+}
+#: The per-run parameters among :data:`COMMON_FIELDS` (``confidence`` is summary-only).
+COMMON_RUN_FIELDS = tuple(k for k in COMMON_FIELDS if k != "confidence")
+GROUP_LABELS = {"q": "q_TS", "w": "ω_ST", "r": "r_ST", "v": "v_ST", "k": "J_T^k"}
+
+
+def check_common(params: dict) -> None:
+    """``inertia_guess_range`` is ``[lo, hi]`` with ``lo <= hi``."""
+    lo_hi = params["inertia_guess_range"]
+    if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
+        raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+
+
+def pose_noise(params) -> PoseNoise:
+    """The pose noise of a config/run (the measurements' and the filter's)."""
+    return PoseNoise(params["sigma_q_rad"], params["sigma_r_m"], params["noise_model"])
+
+
+def thresholds(params) -> dict:
+    """The convergence thresholds of a config/run, in SI units per group."""
+    return {"q": float(np.radians(params["threshold_att_deg"])), "w": float(np.radians(params["threshold_rate_deg_s"])),
+            "r": float(params["threshold_pos_m"]), "v": float(params["threshold_vel_m_s"]), "k": float(params["threshold_k"])}
+
+
+def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random.Generator) -> SpinPrior:
+    """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3).
+
+    ``direction="along"``: ``(1 + e) ω`` (a light curve's period error);
+    ``"random"``: ``ω + e |ω| u`` with ``u`` uniform on the unit sphere (always drawn, so the stream
+    of ``rng`` does not depend on the choice). 1-σ per axis ``e |ω|``.
+    """
+    u = rng.normal(size=3)
+    u /= np.linalg.norm(u)
+    w = np.asarray(w_T_T_true, dtype=float)
+    if direction == "along":
+        return SpinPrior.from_truth(w, error_fraction)
+    n = float(np.linalg.norm(w))
+    return SpinPrior(w + error_fraction * n * u, np.full(3, error_fraction * max(n, 1e-6)), source=f"truth ± {100 * error_fraction:.1f}% random direction")
+
+
+def median_interval(x, confidence: float = 0.95) -> tuple[float, float, float]:
+    """Median and its distribution-free order-statistic interval; NaN values count as +∞ (did not converge).
+
+    Censored values (a run that never converged) have no number but a rank, so
+    the binomial interval of the median (``scipy.stats.binom``) is used rather
+    than a bootstrap; infinite results are returned as NaN.
+    """
+    from scipy.stats import binom
+
+    v = np.sort(np.where(np.isfinite(np.asarray(x, dtype=float)), np.asarray(x, dtype=float), np.inf))
+    n = v.size
+    if n == 0:
+        return (np.nan, np.nan, np.nan)
+    med = float(np.median(v)) if np.isfinite(np.median(v)) else np.inf
+    a = 0.5 * (1.0 - confidence)
+    j = int(binom.ppf(a, n, 0.5))  # P(B <= j-1) < a: v[j-1] is the lower bound (1-based j)
+    k = n - j
+    lo = float(v[j - 1]) if j >= 1 else -np.inf
+    hi = float(v[k]) if k < n else np.inf
+    fin = lambda z: z if np.isfinite(z) else np.nan  # noqa: E731
+    return fin(med), fin(lo), fin(hi)
+
+
+def metric_tables(runs: pd.DataFrame, arms: list[tuple[str, str]], groups, *, confidence: float, scale_ess: float = 1e3):
+    """Paper-layout tables of §6: median convergence time and steady-state RMSE per (basis, group) × arm.
+
+    ``arms``: ``[(column label, query on runs)]``, e.g. ``("EKF +prior", "filter == 'ekf' and prior")``.
+    Returns ``(convergence, steady_state, stats)``: the first two with one column per arm (medians;
+    a non-converged run counts as +∞, so a median of NaN means most runs did not converge);
+    ``stats`` long: every (basis, group, arm) with runs converged, mean, sd, t interval of the mean
+    over the converged runs, median and its order-statistic interval.
+    """
+    from studies.engine.stats import t_interval
+
+    conv, ess, stats_rows = [], [], []
+    for basis, prefix in (("state", ""), ("filter", "f_")):
+        for g in groups:
+            crow, erow = {"basis": basis, "component": GROUP_LABELS[g]}, {"basis": basis, "component": GROUP_LABELS[g]}
+            for label, query in arms:
+                sub = runs.query(query)
+                for metric, row, scale in ((f"ct_{prefix}{g}_s", crow, 1.0), (f"ess_{prefix}{g}", erow, scale_ess)):
+                    vals = pd.to_numeric(sub[metric], errors="coerce").to_numpy(dtype=float) * scale
+                    med, mlo, mhi = median_interval(vals, confidence)
+                    row[label] = med
+                    iv = t_interval(vals, confidence)
+                    fin = vals[np.isfinite(vals)]
+                    stats_rows.append({"basis": basis, "component": GROUP_LABELS[g], "arm": label,
+                                       "metric": "convergence time (s)" if scale == 1.0 else f"steady-state RMSE (x1e-{int(np.log10(scale_ess))})",
+                                       "runs": len(vals), "converged": int(fin.size), "mean": iv.estimate,
+                                       "sd": float(fin.std(ddof=1)) if fin.size > 1 else np.nan, "mean lo": iv.lo, "mean hi": iv.hi,
+                                       "median": med, "median lo": mlo, "median hi": mhi})
+            conv.append(crow)
+            ess.append(erow)
+    return pd.DataFrame(conv), pd.DataFrame(ess), pd.DataFrame(stats_rows)
+
+
+def read_error_series(out_dir: Path, run_ids) -> dict[str, pd.DataFrame]:
+    """``errors.parquet`` of each run that wrote one (``DIR/runs/<run_id>/errors.parquet``)."""
+    from studies.engine.sweep import run_dir
+
+    out = {}
+    for rid in run_ids:
+        p = run_dir(out_dir, rid) / "errors.parquet"
+        if p.is_file():
+            out[rid] = pd.read_parquet(p)
+    return out
+
+
+def plot_error_bands(ax, series: list[pd.DataFrame], column: str, scale: float, label: str, color: str) -> None:
+    """Median over runs of ``column`` (× ``scale``) against time with the 25–75 % band."""
+    if not series:
+        return
+    t = series[0]["t_s"].to_numpy()
+    n = min(len(s) for s in series)
+    m = np.array([s[column].to_numpy()[:n] for s in series]) * scale
+    ax.plot(t[:n], np.median(m, axis=0), color=color, lw=1.2, label=f"{label} (median of {len(series)})")
+    ax.fill_between(t[:n], np.percentile(m, 25, axis=0), np.percentile(m, 75, axis=0), color=color, alpha=0.25, lw=0)
+
+
+def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tuple[str, str], rows, scenario: str,
+                        shade: tuple[float, float] | None = None) -> None:
+    """Errors against time, one column per filter, the two arms of a paired study overlaid.
+
+    ``arm`` is the boolean column of ``runs`` that tells the arms apart (``prior``,
+    ``proxy``), ``labels`` their legend names (False, True); ``rows`` are
+    ``(group, scale, y label, threshold or None)``; ``shade`` an interval to grey
+    out (a fault window). Median and inter-quartile band over seeds
+    (:func:`plot_error_bands`), log scale; written atomically as PNG.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    series = read_error_series(path.parent, runs["run_id"])
+    filters = list(dict.fromkeys(runs["filter"]))
+    fig, axes = plt.subplots(len(rows), len(filters), figsize=(4.8 * len(filters), 1.8 * len(rows) + 1.8),
+                             layout="constrained", sharex=True, squeeze=False)
+    for j, f in enumerate(filters):
+        for i, (g, scale, label, thr) in enumerate(rows):
+            ax = axes[i, j]
+            if shade is not None:
+                ax.axvspan(*shade, color="0.85", label="fault window")
+            for value, color in ((False, "tab:blue"), (True, "tab:orange")):
+                ids = runs.query(f"filter == '{f}' and {arm} == {value}")["run_id"]
+                plot_error_bands(ax, [series[r] for r in ids if r in series], f"err_{g}", scale, labels[value], color)
+            if thr is not None:
+                ax.axhline(thr, color="k", ls="--", lw=0.8, label="threshold")
+            ax.set_yscale("log")
+            ax.set_ylabel(label)
+            if i == 0:
+                ax.set_title(f"{f.upper()} — {scenario}")
+            if i == len(rows) - 1:
+                ax.set_xlabel("time (s)")
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110)
+    plt.close(fig)
+
+
+def paired_specs(config, arm: str, run_fields) -> list:
+    """Filters × {without, with ``arm``} × seeds, run ids ``<filter>-<none|arm>-s<index>``.
+
+    Both arms of one seed index share a seed key, so they see the same
+    measurements and initial guess (paired comparisons); ``run_fields`` are the
+    config fields copied into every run's parameters.
+    """
+    from studies.engine.sweep import make_specs
+
+    common = {k: config[k] for k in run_fields}
+    return make_specs(config.seed, (
+        (f"{f}-{arm if on else 'none'}-s{i:03d}", {"filter": f, arm: on, "seed_index": i, **common}, f"s{i:03d}")
+        for f in config["filters"] for on in (False, True) for i in range(config["n_seeds"])
+    ))

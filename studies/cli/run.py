@@ -1,0 +1,338 @@
+"""``lcnav run``: one filter on one scenario, with or without a spin prior; metrics, states, recording.
+
+Per run ``i`` (seed ``seed + i``): the scenario's truth (:mod:`studies.sim.truth`),
+simulated pose measurements at ``1/τ_s`` (:mod:`perception.simulated_pose`,
+or a measurement file), the initial guess of §6 of Renis et al. (``q_TS = 1``,
+``ω = r = v = 0``, ``k`` from the true inertia scaled by ``U(0.7, 1.3)`` per
+axis), optionally the prior as initial condition and/or proxy, then the filter.
+Writes, after everything has run (nothing is written on an error):
+
+* ``metrics.json`` — convergence time and steady-state RMSE per group of the
+  first run (state based in ``components``, filter based in
+  ``filter_components``), their means over the runs, the fraction of steps
+  (from the fixed settling time :data:`studies.sim.metrics.SETTLING_S`, 60 s) whose run-averaged NEES lies in its 95 %
+  band, the same for each source's NIS (3 dof), gate rejection rates;
+* ``states.parquet`` — per step of the first run: truth, estimate, 3-σ of
+  each error state, NIS and gate decisions;
+* ``run.rrd`` — the same on the ``sim_time`` timeline in the layout of
+  :mod:`studies.recording.blueprint` (``/truth/...``, ``/estimate/<filter>/...`` with
+  errors and ±3σ, ``/measurement/<source>/...``, ``/gate/<filter>/<source>/e2``
+  with its bounds and a log of rejections), with the viewer layout.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import pandas as pd
+import typer
+
+from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.navigation import FILTERS, SOURCES, NavigationRun
+from estimators.prior import PROXY_MODES, SpinPrior, prior_from_rate, tuning_for_prior
+from estimators.tuning import TUNINGS, Tuning, get_tuning
+from perception.simulated_pose import parse_faults
+from studies.engine import validate as v
+from studies.engine.io import output_folder, write_json, write_table
+from studies.sim.metrics import GROUPS, SETTLING_S, UNITS, chi_square_band, evaluate, fraction_in_band, nees
+from studies.sim.navigation import K_STATES, navigate, one_axis
+from studies.recording.navigation import record_navigation
+from studies.sim.scenarios import get_scenario
+from studies.sim.truth import RELATIVE_COLUMNS, Truth, simulate_truth
+
+PRIOR_USES = ("none", "init", "proxy")
+ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
+MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
+
+
+#: Most filter steps per run (duration / dt) and most Monte-Carlo runs: a bound on the work one command may ask for.
+MAX_STEPS = 10**5
+MAX_RUNS = 1000
+#: Largest prior rate magnitude, deg/s (a tumbling body spins far slower than 1 turn/s).
+MAX_RATE_DEG_S = 360.0
+#: Largest --prior-json, bytes.
+MAX_PRIOR_BYTES = 2**20
+
+
+def _floats(text: str, n: int, flag: str, max_abs: float = 1e12) -> np.ndarray:
+    return v.check_floats(flag, text, n, max_abs=max_abs)
+
+
+def _read_measurements(path: Path, t_span: tuple[float, float]):
+    """Pose measurements from a Parquet/CSV file: every row finite, unit quaternions, strictly increasing times in the run."""
+    v.check_in_file("--measurements", path, (".parquet", ".csv"))
+    where = f"--measurements {str(path)!r}"
+    try:
+        if path.suffix.lower() == ".parquet":
+            df = pd.read_parquet(path)
+        else:
+            v.check_no_nul(where, path.read_bytes())
+            df = pd.read_csv(path)
+    except (ValueError, OSError, ImportError) as e:  # pyarrow/pandas parse errors are ValueErrors
+        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}); expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
+    missing = [c for c in MEASUREMENT_COLUMNS if c not in df.columns]
+    if missing:
+        raise v.InputError(f"{where} lacks columns {missing}; expected {', '.join(MEASUREMENT_COLUMNS)}")
+    if len(df) < 2:
+        raise v.InputError(f"{where} holds {len(df)} row(s); expected at least 2 measurements")
+    for c in MEASUREMENT_COLUMNS:
+        col = df[c]
+        if col.dtype.kind not in "fiu":
+            bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
+            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
+    a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+    if bad.size:
+        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell; expected finite measurements")
+    t = a[:, 0]
+    if np.any(np.diff(t) <= 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}; expected strictly increasing times")
+    if not np.any((t >= t_span[0]) & (t <= t_span[1])):
+        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s; expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
+    q = a[:, 1:5]
+    if np.any(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-6):
+        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...; expected unit quaternions")
+    if np.any(np.abs(a[:, 5:8]) > 1e7):
+        raise v.InputError(f"{where}: a position beyond 1e7 m; expected relative positions within 10000 km")
+    return t, q, a[:, 5:8]
+
+
+def _read_prior_json(path: Path, axis: str):
+    """A prior from ``lcnav lightcurve prior --json``: a JSON object with numbers ``rate_rad_s`` and ``rate_sigma_rad_s``."""
+    v.check_in_file("--prior-json", path, max_bytes=MAX_PRIOR_BYTES)
+    where = f"--prior-json {str(path)!r}"
+    data = path.read_bytes()
+    v.check_no_nul(where, data)
+    try:
+        d = json.loads(data)
+    except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
+        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}); expected an object from `lcnav lightcurve prior --json`") from None
+    if not isinstance(d, dict):
+        raise v.InputError(f"{where} holds a JSON {type(d).__name__}; expected an object with rate_rad_s and rate_sigma_rad_s")
+    if d.get("rate_rad_s") is None:
+        raise v.InputError(f"prior without a rate: {where} has no rate_rad_s (no significant period in the light curve)")
+    max_rate = np.radians(MAX_RATE_DEG_S)
+    rate = v.check_number(f"{where}: rate_rad_s", d["rate_rad_s"], 0.0, max_rate, unit="rad/s")
+    sigma = v.check_number(f"{where}: rate_sigma_rad_s", d.get("rate_sigma_rad_s"), 0.0, max_rate, lo_open=True, unit="rad/s")
+    return prior_from_rate(rate, sigma, _floats(axis, 3, "--prior-axis"), source=str(path))
+
+
+def _metrics_dict(m) -> dict:
+    return {g: {"convergence_time_s": _num(c.convergence_time_s), "steady_state_rmse": _num(c.steady_state_rmse)} for g, c in m.items()}
+
+
+def _num(v: float):
+    return None if not np.isfinite(v) else float(v)
+
+
+def _states_table(tr: Truth, run: NavigationRun) -> pd.DataFrame:
+    cols = {"t_s": tr.t}
+    cols.update({f"true_{c}": v for c, v in zip(RELATIVE_COLUMNS, tr.x.T)})
+    cols.update({f"est_{c}": v for c, v in zip(RELATIVE_COLUMNS, run.x.T)})
+    sig = 3.0 * np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
+    cols.update({f"sigma3_{c}": v for c, v in zip(ERROR_NAMES, sig.T)})
+    for s in SOURCES:
+        cols[f"nis_{s}"] = run.nis[s]
+        cols[f"accepted_{s}"] = run.accepted[s]
+    cols["proxy_used"] = run.proxy_used
+    return pd.DataFrame(cols)
+
+
+def run(
+    scenario: str = typer.Option("SC3", help="Scenario name (SC1-SC4).", callback=v.text()),
+    filter_: str = typer.Option("ekf", "--filter", help=f"Filter: {'|'.join(FILTERS)}.", callback=v.text(FILTERS)),
+    duration: float = typer.Option(300.0, help="Simulated time, s (at most 1e5 filter steps).", callback=v.number(0, 1e6, lo_open=True, unit="s")),
+    dt: float = typer.Option(1.0, help="Sampling time tau_s of the filter and the pose estimator, s.", callback=v.number(0, 600, lo_open=True, unit="s")),
+    prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises).", callback=v.text(PRIOR_USES)),
+    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (Renis et al. §5.3).", callback=v.number(0, 10, lo_open=True)),
+    prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error).", callback=v.text()),
+    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis.", callback=v.path_text()),
+    prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
+    proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'.", callback=v.text(TUNINGS)),
+    p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states).", callback=v.text()),
+    fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
+    runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),
+    seed: int = typer.Option(1, help="Seed of the first run.", callback=v.seed(v.MAX_SEED - MAX_RUNS)),
+    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).", callback=v.text(NOISE_MODELS)),
+    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).", callback=v.number(0, 3.15, lo_open=True, unit="rad")),
+    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).", callback=v.number(0, 1e3, lo_open=True, unit="m")),
+    gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates).", callback=v.number(0, 1, hi_open=True)),
+    gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before).", callback=v.number(0, 1e6, unit="s")),
+    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters).", callback=v.count(0, 10**4)),
+    measurements: Optional[Path] = typer.Option(None, help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.", callback=v.path_text()),
+    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
+) -> None:
+    """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
+    setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
+                   prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
+                   p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out)
+    results = _monte_carlo(setup)
+    metrics = _run_metrics(setup, results)
+    # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
+    first, meas0, _ = results[0]
+    tr = setup.truth
+    with output_folder(out, "run") as stage:
+        write_table(stage / "states.parquet", _states_table(tr, first))
+        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
+        write_json(stage / "metrics.json", metrics)
+    for line in summary_lines(metrics):
+        typer.echo(line)
+    typer.echo(f"wrote {out / 'metrics.json'}, {out / 'states.parquet'} and {out / 'run.rrd'}")
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """What ``lcnav run`` runs, validated: the truth, the filter and its tuning, the prior, the measurements' noise and faults, the gates."""
+
+    truth: Truth
+    filter: str
+    tuning: Tuning
+    P0: np.ndarray
+    spin: SpinPrior | None
+    prior_use: str
+    proxy_mode: str
+    faults: tuple
+    pose_noise: PoseNoise
+    gate_confidence: float | None
+    gate_start_s: float
+    consider: tuple
+    meas: object  #: measurements read from --measurements, or None to simulate them
+    reacquire_window: int | None
+    runs: int
+    seed: int
+    config: dict  #: the options as metrics.json records them
+
+
+def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> SpinPrior | None:
+    if prior_json is not None and prior_rate_deg_s is not None:
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+    if prior_json is not None:
+        return _read_prior_json(prior_json, prior_axis)
+    if prior_rate_deg_s is None:
+        return None
+    if not prior_rate_deg_s.strip():
+        raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+    w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
+    return SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
+
+
+def _parse_faults(fault: str | None) -> tuple:
+    if not fault:
+        return ()
+    start, length = _floats(fault, 2, "--fault", max_abs=1e6)
+    if start < 0 or length <= 0:
+        v.fail("--fault", fault, "'START,LENGTH' in s with START >= 0 and LENGTH > 0")
+    return parse_faults([(start, length)])
+
+
+def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
+    if p0_diag is None:
+        return None
+    d = _floats(p0_diag, 14, "--p0-diag")
+    if np.any(d <= 0):
+        v.fail("--p0-diag", p0_diag, "14 variances > 0 (P_0 positive definite)")
+    return np.diag(d)
+
+
+def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out) -> RunSetup:
+    """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
+    sc = get_scenario(scenario)
+    if dt > duration or duration / dt > MAX_STEPS:
+        v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} filter steps")
+    if reacquire_window != 0 and reacquire_window < 3:
+        v.fail("--reacquire-window", reacquire_window, "0 (off) or at least 3 measurements")
+    pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
+    if out is None:
+        raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
+    spin = _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error)
+    faults = _parse_faults(fault)
+    P0 = _parse_p0(p0_diag)
+    meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
+    tr = simulate_truth(sc, duration, dt)
+    if spin is None and prior != "none":
+        spin = SpinPrior.from_truth(tr.target[0, 10:13], prior_error)
+    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
+    tun = get_tuning(tuning_name)
+    consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
+    config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
+              "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
+              "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
+              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()}
+    return RunSetup(tr, filter_, tun, tun.P_0 if P0 is None else P0, spin, prior, proxy_mode, faults, pose_noise, gate_confidence or None,
+                    gate_start, consider, meas, reacquire_window or None, runs, seed, config)
+
+
+def _monte_carlo(setup: RunSetup) -> list:
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i``."""
+    results = []
+    tr = setup.truth
+    for i in range(setup.runs):
+        rng = np.random.default_rng(setup.seed + i)
+        run_i, meas_i = navigate(tr, setup.filter, setup.tuning, rng, P0=setup.P0, prior=setup.spin, prior_use=setup.prior_use,
+                                 proxy_mode=setup.proxy_mode, faults=setup.faults, pose_noise=setup.pose_noise,
+                                 gate_confidence=setup.gate_confidence, gate_start_s=setup.gate_start_s, consider=setup.consider,
+                                 meas=setup.meas, reacquire_window=setup.reacquire_window)
+        results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+    return results
+
+
+def _mean_over_runs(results, g: str, key: str):
+    values = [getattr(r[2]["state"][g], key) for r in results]
+    return _num(float(np.nanmean(values)) if any(np.isfinite(values)) else float("nan"))
+
+
+def _run_metrics(setup: RunSetup, results: list) -> dict:
+    """metrics.json: the first run's §6 metrics, their means over the runs, NEES/NIS in band from :data:`SETTLING_S`, gate rates."""
+    tr = setup.truth
+    states = np.arange(12) if setup.consider else np.arange(14)
+    E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
+    sel = (tr.t - tr.t[0]) >= SETTLING_S
+    lo, hi = chi_square_band(len(states), setup.runs, 0.95)
+    avg = E[:, sel].mean(axis=0)
+    first, _, m0 = results[0]
+    return {
+        "filter": setup.filter,
+        "scenario": tr.scenario.name,
+        "components": _metrics_dict(m0["state"]),
+        "nees_fraction_in_95": _num(float(np.mean((avg >= lo) & (avg <= hi))) if avg.size else float("nan")),
+        "filter_components": _metrics_dict(m0["filter"]),
+        "components_mean_over_runs": {g: {k: _mean_over_runs(results, g, k) for k in ("convergence_time_s", "steady_state_rmse")} for g in GROUPS},
+        "nees": {"dof": int(len(states)), "from_s": float(SETTLING_S), "band_95": [lo, hi], "runs": setup.runs},
+        "nis_fraction_in_95": {s: _num(fraction_in_band(np.array([r.nis[s][sel] for r, _, _ in results]), 3)) for s in SOURCES},
+        "reacquisitions": [[t_re, source] for t_re, source in first.reacquisitions],
+        "gate_rejection_rate": {s: _num(float(np.mean([np.mean(~r.accepted[s][np.isfinite(r.nis[s])]) for r, _, _ in results]))) for s in SOURCES},
+        "config": setup.config,
+    }
+
+
+def summary_lines(metrics: dict) -> list[str]:
+    """What ``lcnav run`` prints of ``metrics.json``: per group t_conv and RMSE (mean over the runs), consistency, gates."""
+    cfg = metrics["config"]
+
+    def pct(x, digits=0):
+        return "–" if x is None else f"{100 * x:.{digits}f} %"
+
+    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}, tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
+             f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)",
+             f"  {'group':6s}{'t_conv (s)':>12s}{'RMSE':>14s}"]
+    for g, c in metrics["components_mean_over_runs"].items():
+        t_conv, rmse = c["convergence_time_s"], c["steady_state_rmse"]
+        lines.append(f"  {g:6s}{'–' if t_conv is None else f'{t_conv:.1f}':>12s}{'–' if rmse is None else f'{rmse:.3g}':>14s} {UNITS[g]}")
+    n, nis, gate = metrics["nees"], metrics["nis_fraction_in_95"], metrics["gate_rejection_rate"]
+    lines.append(f"  from t >= {n['from_s']:g} s: NEES in its 95 % band on {pct(metrics['nees_fraction_in_95'])} of the steps "
+                 f"({n['dof']} dof); NIS in band {', '.join(f'{s} {pct(v)}' for s, v in nis.items())}")
+    lines.append(f"  gates (confidence {cfg['gate_confidence']}): rejected {', '.join(f'{s} {pct(v, 1)}' for s, v in gate.items())}"
+                 + (f"; {len(metrics['reacquisitions'])} re-acquisition(s)" if metrics["reacquisitions"] else ""))
+    return lines
+
+
+def register(app: typer.Typer) -> None:
+    app.command("run")(run)

@@ -1,0 +1,62 @@
+"""The recording of one navigation run (EKF/UKF of Renis et al.): truth, estimate, error ±3σ, measurements, gates."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from estimators.error_state import ERROR_SLICES, boxminus
+from estimators.navigation import SOURCES, NavigationRun
+from studies.recording.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
+from studies.recording.writer import recording, send_scalars, set_sim_time
+from studies.sim.truth import Truth
+
+QUAT_AXES = ("0", "1", "2", "3")
+
+
+def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, recording_id: str, extra_scalars: dict | None = None) -> None:
+    """``path`` (``.rrd``) in the layout of :mod:`studies.recording.blueprint`, with its viewer layout.
+
+    ``meas``: ``(t, q_TS, r_ST_T, ...)`` as the filter saw them; ``extra_scalars``:
+    ``{entity: (t, values)}`` further series (e.g. ``/measurement/faulty``).
+    """
+    import rerun as rr
+
+    f, t = run.filter, tr.t
+    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
+    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
+                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
+    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
+    with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
+        send_quaternion(rec, f, "q_TS", t, run.x[:, 0:4], tr.x[:, 0:4], QUAT_AXES)
+        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
+        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
+        for name, (sl, esl, axes) in quantities.items():
+            send_truth(rec, name, t, tr.x[:, sl], axes)
+            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
+        tm, qm, rm = meas[:3]
+        send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
+        send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))
+        for s in SOURCES:
+            ok = np.isfinite(run.nis[s])
+            if ok.any():
+                send_scalars(rec, f"/gate/{f}/{s}/e2", t[ok], run.nis[s][ok])
+        by_source = {s: [d for d in run.decisions if d.source == s] for s in SOURCES}
+        for s, ds in by_source.items():
+            if ds:
+                td = np.array([d.t for d in ds])
+                send_scalars(rec, f"/gate/{f}/{s}/lower", td, np.array([d.lower for d in ds]))
+                send_scalars(rec, f"/gate/{f}/{s}/upper", td, np.array([d.upper for d in ds]))
+        set_sim_time(rec, 0.0)
+        for d in run.decisions:
+            if not d.accepted:
+                set_sim_time(rec, d.t)
+                rec.log(f"/gate/{f}/log", rr.TextLog(f"{d.source} rejected: e2 = {d.e2:.3g} outside [{d.lower:.3g}, {d.upper:.3g}] ({d.reason})", level="WARN"))
+        for t_re, source in run.reacquisitions:
+            set_sim_time(rec, t_re)
+            rec.log(f"/gate/{f}/log", rr.TextLog(f"{source} re-acquired from its last rejected innovations (estimators.reacquisition)", level="INFO"))
+        if run.proxy_used.any():
+            send_scalars(rec, f"/estimate/{f}/proxy_used", t, run.proxy_used.astype(float))
+        for entity, (te, values) in (extra_scalars or {}).items():
+            send_scalars(rec, entity, te, values)

@@ -1,0 +1,594 @@
+"""The CoMBiNa closed loop of Maestrini et al. §VI: truth, measurements, filters, metrics.
+
+Scenario (§VI): the chaser on an 800 km circular orbit; the target's centre of
+mass starts at ``r(0) = [2, 0, 0.2] LU``, ``v(0) = [0, −4, 0] LU/TU`` in the
+chaser's LVLH frame (eq. 46, an inclined football orbit, 24–48 m, ≈ 37 m on
+average), with the attitude of eq. 47 (``σ_T(0)``, ``ω_T(0)`` in rad/TU, ``k``).
+Scaled units: ``TU = 963.65 s`` (the paper's ``1/n``), ``LU = 12 m``. Filter
+tuning: ``P_0 = 0.1 I`` (eq. 48) in scaled units; the initial estimates are
+drawn from ``N(truth, P_0)`` (1-σ ≈ 3.8 m in position). ``R`` is the
+measurement model's own covariance when the source states it (the simulated
+BCPD: 0.3 m per axis, 2° per axis, i.e. ``R_a = (2°/4)² I`` on the error MRP);
+the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
+4× and 11× the simulated noise) is kept only for the rendered chain, whose
+noise is not modelled. Attitude process noise:
+:func:`estimators.combina_attitude.attitude_process_noise`. A filter that
+rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
+covariance reset to ``P_0`` (divergence recovery).
+
+Symmetry: the temporal test of §IV.C (:class:`estimators.symmetry.SymmetryDetector`,
+fed the filter's integrated relative-rotation prediction and its uncertainty)
+on every source; on the rendered chain also the geometric roll test
+(:class:`estimators.symmetry.RollSymmetryTest` over ``ROLL_WINDOW`` clouds),
+because a registration seeded by the prediction echoes the filter's roll and
+hides the symmetry from the temporal test.
+
+The scenario is ``studies.scenarios``' ``COMBINA``; truth is its two absolute
+integrations (:func:`studies.truth.simulate_truth`, DOP853 at 1e-12), chaser
+and target, turned into the LVLH relative state, so the filter's NERM model
+(eq. 9) is checked against independent dynamics.
+
+Targets: ``asymmetric`` has ``k = [0.03, −0.1]`` (eq. 47, a box-wing);
+``symmetric`` is a rocket body with ``A = C = 4 B`` (``k = [ln 4, −ln 4]``, the
+axisymmetric inertia of Renis et al. §6 rounded), symmetry axis = body ``y``.
+
+Measurements come from a :class:`MeasurementSource` — the simulated
+BCPD-like source of :mod:`perception.simulated_bcpd`, or the rendered stereo +
+BCPD chain of :mod:`studies.combina_rendered` (Mitsuba images of the box-wing
+or Atlas-Centaur meshes, whose own inertia ratios then replace the ones above).
+
+Spin priors (``--prior``, Renis et al. §6): ``init`` draws ``ω_0`` around the truth
+with a relative error ``prior_error`` (isotropic, ``|ω_0 − ω| ≈ prior_error |ω|``)
+and sets the ``ω`` block of ``P_0`` to ``(prior_error |ω_0|)²/3 · I``. ``proxy``
+does the same and, whenever the attitude filter rejects a BCPD measurement,
+updates it with the prior's spin *rate* ``|ω_0|`` instead (a light curve gives
+a rate, not a body-frame vector; Renis et al.'s fixed-vector proxy is valid only
+for 1-axis spin), with variance ``(prior_error |ω_0|)²`` inflated at each reuse
+so that the reuses together never carry more than the prior's own
+information. In axisymmetric mode the prior's rate initialises ``Γ/A`` (the
+precession rate is what the light curve shows for a precessing rocket body).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Protocol
+
+import numpy as np
+
+from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
+from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance
+from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
+from estimators.combina_gates import mahalanobis_gate, scale_gate
+from estimators.combina_translation import ScaledUnits, TranslationalUKF
+from estimators.dynamics import lvlh_dcm, spherical_from_axis
+from estimators.gates import GateDecision
+from estimators.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
+from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
+from lightcurves.targets import get_target
+from studies.sim.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
+from studies.sim.truth import simulate_truth
+
+# ---------------------------------------------------------------- scenario (Maestrini et al. §VI)
+
+SCENARIO = get_scenario("COMBINA")
+R_T_M = SCENARIO.orbit_radius_m
+N_RAD_S = SCENARIO.mean_motion_rad_s
+UNITS = ScaledUnits(TU_s=TU_COMBINA_S, LU_m=LU_COMBINA_M)
+TU, LU = UNITS.TU_s, UNITS.LU_m
+K_TARGETS = {"asymmetric": np.array(SCENARIO.k), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
+#: The meshes rendered for ``--measurements rendered`` (their own inertia ratios then apply).
+MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
+SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
+P0_SCALED = 0.1  # eq. 48
+R_SCALED = 0.01  # R_s = R_a
+TARGETS = tuple(K_TARGETS)
+#: Consecutive Mahalanobis rejections after which a filter's covariance is reset to its P_0 (divergence recovery).
+#: With R equal to the registration noise, one outlier accepted while P_0 is wide (a 66° misregistration at
+#: the first epoch) locks the filter onto it: every later measurement is rejected. A consistent filter rejects
+#: 5 good measurements in a row with probability 1e-10, and 5 outliers in a row occur with probability 3e-7.
+MAX_CONSECUTIVE_REJECTIONS = 5
+#: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
+ROLL_WINDOW = 5
+SOURCES = ("simulated", "rendered")
+PRIORS = ("none", "init", "proxy")
+AXIS_FRAMES = ("known", "estimated")
+#: Convergence tolerances on the error norm, in scaled units (LU, LU/TU, MRP, rad/TU, 1, rad).
+TOLERANCES = {"r": 0.1, "v": 0.1, "sigma": 0.05, "w": 0.1, "k": 0.1, "phi": np.deg2rad(5.0), "delta": np.deg2rad(5.0), "gamma_over_a": 0.05}
+COMPONENT_SI = {"r": LU, "v": LU / TU, "sigma": 1.0, "w": 1.0 / TU, "k": 1.0, "phi": 1.0, "delta": 1.0, "gamma_over_a": 1.0 / TU}
+
+
+class MeasurementSource(Protocol):
+    """Anything that returns a BCPD pose registration of the target at a true pose."""
+
+    def measure(self, t: float, r_L_true, q_IT_true, *, r_L_hat, q_IT_hat) -> RegisteredPose:
+        """Register the target at the true pose; ``r_L_hat``, ``q_IT_hat`` are the filters' predictions (eq. 3)."""
+        ...
+
+
+@dataclass(frozen=True)
+class CombinaConfig:
+    """One closed-loop run; ``validate`` names the bad field."""
+
+    target: str = "asymmetric"
+    measurements: str = "simulated"
+    duration_tu: float = 2.0
+    rate_hz: float = 0.33
+    seed: int = 1
+    prior: str = "none"
+    prior_error: float = 0.05
+    axis_frame: str = "known"
+    quick: bool = False
+
+    def validate(self) -> None:
+        if self.target not in TARGETS:
+            raise ValueError(f"target must be one of {'|'.join(TARGETS)}, got {self.target!r}")
+        if self.measurements not in SOURCES:
+            raise ValueError(f"measurements must be one of {'|'.join(SOURCES)}, got {self.measurements!r}")
+        if not (np.isfinite(self.duration_tu) and self.duration_tu > 0):
+            raise ValueError(f"duration-tu must be a positive number of time units, got {self.duration_tu!r}")
+        if not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ValueError(f"rate-hz must be a positive measurement rate in Hz, got {self.rate_hz!r}")
+        if self.prior not in PRIORS:
+            raise ValueError(f"prior must be one of {'|'.join(PRIORS)}, got {self.prior!r}")
+        if not (np.isfinite(self.prior_error) and 0 < self.prior_error < 1):
+            raise ValueError(f"prior-error must be a relative error in (0, 1), got {self.prior_error!r}")
+        if self.axis_frame not in AXIS_FRAMES:
+            raise ValueError(f"axis-frame must be one of {'|'.join(AXIS_FRAMES)}, got {self.axis_frame!r}")
+        if int(self.seed) != self.seed or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        n = int(np.floor(self.effective_duration_s * self.rate_hz))
+        if n < 2:
+            raise ValueError(f"duration-tu × rate-hz gives {n} measurement(s); need at least 2")
+
+    def epochs_s(self) -> np.ndarray:
+        """The measurement epochs ``0, Δt, …, nΔt`` (s) of a run, ``n = ⌊duration × rate⌋``."""
+        n_meas = int(np.floor(self.effective_duration_s * self.rate_hz))
+        return (1.0 / self.rate_hz) * np.arange(n_meas + 1)
+
+    @property
+    def effective_duration_s(self) -> float:
+        """``--quick`` caps the run at 0.25 TU (simulated) or 0.05 TU (rendered, ~16 frames)."""
+        cap = 0.05 if self.measurements == "rendered" else 0.25
+        return (min(self.duration_tu, cap) if self.quick else self.duration_tu) * TU
+
+
+# ---------------------------------------------------------------- truth
+
+
+@dataclass(frozen=True)
+class Truth:
+    """True relative translation (LVLH) and target attitude at the measurement epochs."""
+
+    t: np.ndarray  #: (N,) s
+    r_L: np.ndarray  #: (N, 3) m, target relative to the chaser
+    v_L: np.ndarray  #: (N, 3) m/s, seen in the rotating LVLH frame
+    q_IT: np.ndarray  #: (N, 4)
+    w_T: np.ndarray  #: (N, 3) rad/s
+    k: np.ndarray  #: (2,)
+    J_T: np.ndarray  #: (3,) principal inertia, B = 1
+    C_LI: np.ndarray  #: (N, 3, 3) the chaser's LVLH axes (rows) in I
+
+
+def target_k(target: str, measurements: str = "simulated") -> np.ndarray:
+    """Inertia ratios of the target: the scenario's for simulated measurements, the mesh's for rendered ones."""
+    if measurements == "rendered":
+        return np.array(get_target(MESH_TARGETS[target]).k, dtype=float)
+    return K_TARGETS[target].copy()
+
+
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None) -> Truth:
+    """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH.
+
+    ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`);
+    ``q_IT0`` and ``w_T0_rad_s`` the target's initial attitude and body rate
+    (default: eq. 47's), e.g. for the random initial conditions of §VII.
+    """
+    k = K_TARGETS[target].copy() if k is None else np.asarray(k, dtype=float)
+    sc = replace(SCENARIO, name=f"COMBINA-{target}", k=(float(k[0]), float(k[1])))
+    if q_IT0 is not None:
+        sc = replace(sc, q_IT0=tuple(float(v) for v in q_IT0))
+    if w_T0_rad_s is not None:
+        sc = replace(sc, w_T0_T_rad_s=tuple(float(v) for v in w_T0_rad_s))
+    tr = simulate_truth(sc, duration_s, dt_s)
+    s, g = tr.servicer, tr.target
+    C_LI = lvlh_dcm(s[:, 0:3], s[:, 3:6])
+    w_L = np.array([0.0, 0.0, N_RAD_S])
+    r_L = np.einsum("nij,nj->ni", C_LI, g[:, 0:3] - s[:, 0:3])
+    v_L = np.einsum("nij,nj->ni", C_LI, g[:, 3:6] - s[:, 3:6]) - np.cross(w_L, r_L)  # transport theorem
+    return Truth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=k, J_T=tr.J_T_diag, C_LI=C_LI)
+
+
+def angular_momentum_I(q_IT, w_T, J_T) -> np.ndarray:
+    """``Γ`` in I: ``R(q_IT) J ω``."""
+    return np.einsum("...ij,...j->...i", quat_to_dcm(q_IT), np.asarray(J_T) * np.asarray(w_T))
+
+
+# ---------------------------------------------------------------- the loop
+
+
+@dataclass(frozen=True)
+class Step:
+    """Everything known after processing the measurement at ``t``."""
+
+    t: float
+    mode: str  #: "nominal" or "axisymmetric"
+    x_s: np.ndarray  #: (6,) SI translational estimate
+    sd_s: np.ndarray  #: (6,) 1-σ
+    x_a: np.ndarray  #: (8,) attitude estimate (nan in axisymmetric mode)
+    sd_a: np.ndarray  #: (8,)
+    x_ax: np.ndarray  #: (3,) [φ, δ, Γ/A] (nan in nominal mode)
+    sd_ax: np.ndarray  #: (3,)
+    axis_I: np.ndarray  #: (3,) estimated symmetry axis in I (nan in nominal mode)
+    C_GammaI: np.ndarray  #: (3, 3) the axisymmetric filter's current frame I_Γ (nan in nominal mode)
+    spin_e: np.ndarray  #: (2,) [e, (ω_y/A)²] and
+    spin_sd: np.ndarray  #: their 1-σ (nan in nominal mode)
+    shadow_switch: bool
+    P_s: np.ndarray  #: (6, 6) SI covariance of the translational estimate
+    P_a: np.ndarray  #: (8, 8) covariance of the attitude estimate (nan in axisymmetric mode)
+    P_ax: np.ndarray  #: (3, 3) covariance of [φ, δ, Γ/A] (nan in nominal mode)
+
+
+@dataclass(frozen=True)
+class CombinaRun:
+    """A finished run: truth, measurements, per-step estimates and every gate decision."""
+
+    config: CombinaConfig
+    truth: Truth
+    measurements: list[RegisteredPose]
+    steps: list[Step]
+    gates: list[GateDecision]
+    symmetry: list[SymmetryCheck]
+    switch_time_s: float | None
+    C_GammaI: np.ndarray | None  #: the axisymmetric filter's initial frame I_Γ (None without a switch)
+    iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
+    registration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the registration's part of it (the source's ``measure``)
+    proxy_updates: int = 0
+    prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
+    model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
+    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
+
+
+def _nan(n):
+    return np.full(n, np.nan)
+
+
+def make_source(cfg: CombinaConfig, rng: np.random.Generator, truth: Truth) -> MeasurementSource:
+    """The measurement source named by ``cfg.measurements`` (rendered: smaller images with ``--quick``)."""
+    if cfg.measurements == "rendered":
+        from studies.sim.combina_rendered import RenderedBCPD  # Mitsuba loads only when asked for
+
+        return RenderedBCPD(get_target(MESH_TARGETS[cfg.target]), truth.t, truth.C_LI, rng, resolution_px=256 if cfg.quick else 512, spp=4 if cfg.quick else 8)
+    axis = SYMMETRY_AXIS_T if cfg.target == "symmetric" else None
+    return SimulatedBCPD(rng, symmetry_axis_T=axis)
+
+
+def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, truth: Truth | None = None) -> CombinaRun:
+    """Run the closed loop of §VI for ``cfg`` (validated first)."""
+    cfg.validate()
+    # Separate streams: the measurements of a seed do not depend on how the filter is initialised.
+    rng, rng_meas = (np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(2))
+    dt = 1.0 / cfg.rate_hz
+    t = cfg.epochs_s()
+    n_meas = t.size - 1
+    if truth is None:
+        truth = simulate_lvlh_truth(cfg.target, t[-1], dt, k=target_k(cfg.target, cfg.measurements))
+    if truth.t.shape != t.shape or not np.allclose(truth.t, t):
+        raise ValueError("truth epochs do not match the configuration's measurement epochs")
+    if source is None:
+        source = make_source(cfg, rng_meas, truth)
+
+    # ---- initial estimates drawn from P_0 (eq. 48)
+    Ds = UNITS.state_scale()
+    P0_s = P0_SCALED * np.diag(Ds**2)
+    x0_s = np.concatenate([truth.r_L[0], truth.v_L[0]]) + Ds * np.sqrt(P0_SCALED) * rng.normal(size=6)
+    Da = np.array([1.0] * 3 + [1.0 / TU] * 3 + [1.0] * 2)
+    P0_a = P0_SCALED * np.diag(Da**2)
+    x0_a = np.concatenate([quat_to_mrp(truth.q_IT[0]), truth.w_T[0], truth.k]) + Da * np.sqrt(P0_SCALED) * rng.normal(size=8)
+    w_norm0 = float(np.linalg.norm(truth.w_T[0]))
+    prior_rate = None
+    if cfg.prior != "none":
+        # the prior's error is drawn from the truth; its stated uncertainty uses only the prior itself
+        x0_a[3:6] = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)  # |error| ≈ prior_error |ω|
+        prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
+        P0_a[3:6, 3:6] = (cfg.prior_error * prior_rate) ** 2 / 3.0 * np.eye(3)
+    # R: the measurement model's own covariance when the source states it (the simulated BCPD);
+    # the rendered chain's noise is not modelled, so it keeps the paper's R_s = R_a = 0.01 (scaled).
+    sd_r = getattr(source, "position_sigma_m", None)
+    sd_att = getattr(source, "attitude_sigma_rad", None)
+    R_s = (sd_r**2 if sd_r else R_SCALED * LU**2) * np.eye(3)
+    R_axis = sd_att**2 if sd_att else R_SCALED
+    R_a = error_mrp_noise_covariance(sd_att) if sd_att else R_SCALED * np.eye(3)
+
+    trans = TranslationalUKF(x0_s, P0_s, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS)
+    att = AttitudeUKF(x0_a, P0_a, Q=attitude_process_noise)
+    model_T = getattr(source, "model_T", None)
+    roll_test = None if model_T is None else RollSymmetryTest(model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
+    C_post_fed = quat_to_dcm(att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
+    rejected_s = rejected_a = 0  # consecutive Mahalanobis rejections
+    roll_ratios: list[tuple[float, float]] = []
+    axi: AxisymmetricUKF | None = None
+    C_GammaI = None
+    detector = SymmetryDetector()
+    gates: list[GateDecision] = []
+    checks: list[SymmetryCheck] = []
+    meas: list[RegisteredPose] = []
+    steps: list[Step] = []
+    switch_time = None
+    proxy_updates = 0
+
+    def record(ti, switched):
+        mode = "nominal" if axi is None else "axisymmetric"
+        xa, sda = (att.x.copy(), np.sqrt(np.diag(att.P))) if axi is None else (_nan(8), _nan(8))
+        if axi is None:
+            xax, sdax, ax_I, se, ssd, C = _nan(3), _nan(3), _nan(3), _nan(2), _nan(2), np.full((3, 3), np.nan)
+        else:
+            xax, sdax, ax_I, C = axi.x[:3].copy(), np.sqrt(np.diag(axi.P))[:3], axi.axis_I(), axi.frame_dcm().copy()
+            sq = axi.spin_quantities()
+            se, ssd = sq.x_e, np.sqrt(np.diag(sq.P_e))
+        Pa = att.P.copy() if axi is None else np.full((8, 8), np.nan)
+        Pax = np.full((3, 3), np.nan) if axi is None else axi.P[:3, :3].copy()
+        steps.append(Step(t=ti, mode=mode, x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda, x_ax=xax, sd_ax=sdax, axis_I=ax_I, C_GammaI=C, spin_e=se, spin_sd=ssd, shadow_switch=switched,
+                          P_s=trans.P.copy(), P_a=Pa, P_ax=Pax))
+
+    record(0.0, False)
+    iteration_s = np.zeros(n_meas)
+    registration_s = np.zeros(n_meas)
+    for i in range(1, n_meas + 1):
+        tic = time.perf_counter()
+        ti = float(t[i])
+        trans.predict(dt)
+        if axi is None:
+            att.predict(dt)
+        else:
+            axi.predict(dt)
+        q_hat = att.q_IT if axi is None else _attitude_with_axis(axi.axis_I(), att.q_IT)
+        tic_m = time.perf_counter()
+        m = source.measure(ti, truth.r_L[i], truth.q_IT[i], r_L_hat=trans.x[:3], q_IT_hat=q_hat)
+        registration_s[i - 1] = time.perf_counter() - tic_m
+        meas.append(m)
+        switched = False
+
+        g_scale_s = scale_gate(m.scale, t=ti, source="translation")
+        g_scale_a = scale_gate(m.scale, t=ti, source="attitude" if axi is None else "axis")
+        gates += [g_scale_s, g_scale_a]
+        if g_scale_s.accepted:
+            inn = trans.innovation(m.r_L, R_s)
+            g = mahalanobis_gate(inn, t=ti, source="translation")  # eq. 18, ν = 3
+            gates.append(g)
+            rejected_s = 0 if g.accepted else rejected_s + 1
+            if g.accepted:
+                trans.correct(inn)
+            elif rejected_s >= MAX_CONSECUTIVE_REJECTIONS:
+                trans.core.reset_covariance(P0_s / np.outer(Ds, Ds))  # internal (scaled) units
+                rejected_s = 0
+        if axi is None:
+            att_ok = False
+            if g_scale_a.accepted:
+                sd_pred = 4.0 * float(np.sqrt(np.max(np.linalg.eigvalsh(att.P[:3, :3]))))  # error MRP ≈ angle/4
+                check = detector.add(ti, m.C_TI, quat_to_dcm(att.q_IT).T @ C_post_fed.T, sd_pred)
+                if check is not None:
+                    checks.append(check)
+                if roll_test is not None and m.cloud_L is not None and len(m.cloud_L) >= 10:
+                    roll_ratios.append((ti, roll_test.add(ti, cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, truth.C_LI[i].T, m.scale))))
+                inn = att.innovation(m.q_IT, R_a)
+                g = mahalanobis_gate(inn, t=ti, source="attitude")
+                gates.append(g)
+                rejected_a = 0 if g.accepted else rejected_a + 1
+                if g.accepted:
+                    switched = att.correct(inn)
+                    att_ok = True
+                elif rejected_a >= MAX_CONSECUTIVE_REJECTIONS:
+                    att.core.reset_covariance(np.diag(np.maximum(np.diag(att.P), np.diag(P0_a))))
+                    rejected_a = 0
+            if not att_ok and cfg.prior == "proxy":
+                # The same prior is reused at every rejection; its error is not white. The n-th use
+                # gets variance n(n+1)·σ², so the uses add up to the prior's information 1/σ² at most
+                # (Σ 1/(n(n+1)) = 1) instead of n/σ², which made a 2σ-biased prior pull ω off.
+                proxy_updates += 1
+                var = proxy_updates * (proxy_updates + 1) * (cfg.prior_error * prior_rate) ** 2
+                att.correct(att.rate_proxy_innovation(prior_rate, var))
+            if g_scale_a.accepted:
+                C_post_fed = quat_to_dcm(att.q_IT).T
+            if detector.detected or (roll_test is not None and roll_test.detected):
+                switch_time = ti
+                axi, C_GammaI = _start_axisymmetric(cfg, truth, i, m, att, rng)
+        elif g_scale_a.accepted:
+            inn = axi.innovation(m.C_TI[1], R_axis)  # §V.B: second row of C_TI = J in I
+            g = mahalanobis_gate(inn, t=ti, source="axis")  # ν = 2 here
+            gates.append(g)
+            if g.accepted:
+                axi.correct(inn)
+        iteration_s[i - 1] = time.perf_counter() - tic
+        record(ti, switched)
+
+    return CombinaRun(config=cfg, truth=truth, measurements=meas, steps=steps, gates=gates, symmetry=checks, switch_time_s=switch_time, C_GammaI=C_GammaI, iteration_s=iteration_s, registration_s=registration_s, proxy_updates=proxy_updates, prior_rate_rad_s=prior_rate, model_T=getattr(source, "model_T", None),
+                      roll_ratios=np.array(roll_ratios).reshape(-1, 2))
+
+
+def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
+    """An attitude whose body ``y`` axis is ``J_I``: ``q_ref`` turned by the smallest rotation that does it.
+
+    In axisymmetric mode only the symmetry axis is estimated; this is the seed
+    attitude a registration needs (its roll about the axis is immaterial).
+    """
+    y = quat_to_dcm(q_ref)[:, 1]
+    c = np.cross(y, J_I)
+    ang = np.arctan2(np.linalg.norm(c), float(y @ J_I))
+    axis = c / np.linalg.norm(c) if np.linalg.norm(c) > 0 else np.zeros(3)
+    return quat_multiply(rotvec_to_quat(ang * axis), q_ref)
+
+
+def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredPose, att: AttitudeUKF, rng: np.random.Generator):
+    """Initialise the axisymmetric filter at the switch (§V.C).
+
+    ``I_Γ`` is built about the true angular momentum (the paper's known-input
+    variant); with ``axis_frame = "estimated"`` the filter also estimates
+    ``σ_IΓ``, started from that frame turned by a random rotation of 5° (1-σ
+    per axis) with the matching covariance. ``(φ, δ)`` start from the last
+    measured axis; ``Γ/A`` from the prior's rate if there is one, else from
+    the attitude filter's ``|ω̂|``, with ``P_0 = 0.1`` (scaled) as eq. 48.
+    """
+    Gamma_I = angular_momentum_I(truth.q_IT[i], truth.w_T[i], truth.J_T)
+    J_meas_I = m.C_TI[1]
+    C = gamma_frame_dcm(Gamma_I, J_meas_I)
+    phi0, delta0 = spherical_from_axis(C @ J_meas_I)
+    g_true = float(np.linalg.norm(Gamma_I) / truth.J_T[0])
+    if cfg.prior != "none":
+        g0 = g_true * (1.0 + cfg.prior_error * rng.normal())  # the light curve's dominant (precession) rate
+        var_g = (cfg.prior_error * g0) ** 2
+    else:
+        g0, var_g = float(np.linalg.norm(att.x[3:6])), P0_SCALED / TU**2
+    x0 = [float(phi0), float(delta0), g0]
+    P0 = np.diag([P0_SCALED, P0_SCALED, var_g])
+    if cfg.axis_frame == "known":
+        return AxisymmetricUKF(x0, P0, C_GammaI=C), C
+    sd = np.deg2rad(5.0)
+    dq = rotvec_to_quat(sd * rng.normal(size=3))
+    C_guess = quat_to_dcm(dq) @ C
+    sig0 = frame_mrp(C_guess)
+    phi0, delta0 = spherical_from_axis(C_guess @ J_meas_I)
+    P0f = np.zeros((6, 6))
+    P0f[:3, :3] = P0
+    P0f[3:, 3:] = (2.0 * sd / 4.0) ** 2 * np.eye(3)  # MRP ≈ θ/4; 1-σ set to twice the drawn error's
+    return AxisymmetricUKF(np.concatenate([[float(phi0), float(delta0), g0], sig0]), P0f), C_guess
+
+
+# ---------------------------------------------------------------- errors and metrics
+
+
+def mrp_error(sigma_est, q_true) -> np.ndarray:
+    """Body-frame error MRP of the estimate, ``δσ`` with ``q̂ = q_true ⊗ q(δσ)`` (``|δσ| ≤ 1``).
+
+    The attitude filter's covariance is that of this error (:class:`estimators.combina_attitude.AttitudeUKF`).
+    """
+    return quat_to_mrp(quat_multiply(quat_conjugate(q_true), mrp_to_quat(sigma_est)))
+
+
+def component_errors(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``{name: (t, error (N, d), 1-σ (N, d))}`` in SI for every estimated component (steps with estimates only)."""
+    tr = run.truth
+    S = run.steps
+    t = np.array([s.t for s in S])
+    xs = np.array([s.x_s for s in S])
+    sds = np.array([s.sd_s for s in S])
+    out = {"r": (t, xs[:, :3] - tr.r_L, sds[:, :3]), "v": (t, xs[:, 3:] - tr.v_L, sds[:, 3:])}
+    nom = np.array([s.mode == "nominal" for s in S])
+    xa = np.array([s.x_a for s in S])[nom]
+    sda = np.array([s.sd_a for s in S])[nom]
+    out["sigma"] = (t[nom], np.array([mrp_error(x[:3], q) for x, q in zip(xa, tr.q_IT[nom])]).reshape(-1, 3), sda[:, :3])
+    out["w"] = (t[nom], xa[:, 3:6] - tr.w_T[nom], sda[:, 3:6])
+    out["k"] = (t[nom], xa[:, 6:8] - tr.k, sda[:, 6:8])
+    ax = ~nom
+    if np.any(ax):
+        C = np.array([s.C_GammaI for s in S])[ax]  # the filter's own frame at each step
+        xx = np.array([s.x_ax for s in S])[ax]
+        sdx = np.array([s.sd_ax for s in S])[ax]
+        J_true_I = quat_to_dcm(tr.q_IT[ax])[:, :, 1]  # body y axis in I
+        phi_t, delta_t = spherical_from_axis(np.einsum("nij,nj->ni", C, J_true_I))
+        Gam = angular_momentum_I(tr.q_IT[ax], tr.w_T[ax], tr.J_T)
+        g_t = np.linalg.norm(Gam, axis=1) / tr.J_T[0]
+        out["phi"] = (t[ax], wrap_pi(xx[:, 0] - phi_t)[:, None], sdx[:, :1])
+        out["delta"] = (t[ax], (xx[:, 1] - delta_t)[:, None], sdx[:, 1:2])
+        out["gamma_over_a"] = (t[ax], (xx[:, 2] - g_t)[:, None], sdx[:, 2:3])
+    return out
+
+
+#: The filters' error vectors, as concatenations of :func:`component_errors`' components.
+FILTER_COMPONENTS = {"translation": ("r", "v"), "attitude": ("sigma", "w", "k"), "axisymmetric": ("phi", "delta", "gamma_over_a")}
+
+
+def filter_nees(run: CombinaRun) -> dict[str, tuple[np.ndarray, np.ndarray, int]]:
+    """``{filter: (t, NEES, dof)}``: ``eᵀ P⁻¹ e`` of each filter's full error at each of its steps.
+
+    The normalised estimation error squared is χ²-distributed with as many
+    degrees of freedom as the filter has states (6, 8, 3) when the filter is
+    consistent: the Mahalanobis test of Maestrini et al. §VII ("the errors of the last 10
+    time steps have a probability of at least 99%").
+    """
+    errs = component_errors(run)
+    mode = np.array([s.mode for s in run.steps])
+    cov = {"translation": (np.ones(mode.size, bool), "P_s"), "attitude": (mode == "nominal", "P_a"), "axisymmetric": (mode == "axisymmetric", "P_ax")}
+    out = {}
+    for name, comps in FILTER_COMPONENTS.items():
+        sel, attr = cov[name]
+        if not sel.any():
+            continue
+        e = np.concatenate([errs[c][1] for c in comps], axis=1)
+        P = np.array([getattr(s, attr) for s, k in zip(run.steps, sel) if k])
+        out[name] = (errs[comps[0]][0], np.einsum("ni,ni->n", e, np.linalg.solve(P, e[..., None])[..., 0]), e.shape[1])
+    return out
+
+
+def convergence_index(err_norm: np.ndarray, tol: float) -> int | None:
+    """First index from which the error norm stays at or below ``tol`` to the end (None if never)."""
+    above = np.flatnonzero(err_norm > tol)
+    if above.size == 0:
+        return 0
+    return None if above[-1] == err_norm.size - 1 else int(above[-1] + 1)
+
+
+def component_metrics(t, err, sd, tol_si: float) -> dict:
+    """``converged``, ``convergence_time_s``, ``final_error`` and ``fraction_within_3sigma``.
+
+    The fraction counts steps where every component lies inside ±3σ, over the
+    steps after convergence (all steps if the component never converged).
+    """
+    if t.size == 0:
+        return {"converged": False, "convergence_time_s": None, "final_error": None, "fraction_within_3sigma": None}
+    en = np.linalg.norm(err, axis=1)
+    k = convergence_index(en, tol_si)
+    inside = np.all(np.abs(err) <= 3.0 * sd, axis=1)
+    sel = inside[k:] if k is not None else inside
+    return {
+        "converged": k is not None,
+        "convergence_time_s": None if k is None else float(t[k]),
+        "final_error": float(en[-1]),
+        "fraction_within_3sigma": float(np.mean(sel)),
+    }
+
+
+def run_metrics(run: CombinaRun) -> dict:
+    """The ``metrics.json`` content of a run (see the issue's command-line section)."""
+    comps = {name: component_metrics(t, e, s, TOLERANCES[name] * COMPONENT_SI[name]) for name, (t, e, s) in component_errors(run).items()}
+    counts = {"accepted": 0, "rejected_scale": 0, "rejected_mahalanobis": 0}
+    by_filter: dict[str, dict[str, int]] = {}
+    mahal = {(g.source, g.t) for g in run.gates if not np.isnan(g.e2)}
+    for g in run.gates:
+        f = by_filter.setdefault(g.source, {"accepted": 0, "rejected_scale": 0, "rejected_mahalanobis": 0})
+        if not g.accepted:
+            key = "rejected_scale" if np.isnan(g.e2) else "rejected_mahalanobis"
+        elif np.isnan(g.e2) and (g.source, g.t) in mahal:
+            continue  # a passed scale check is followed by the deciding Mahalanobis check
+        else:
+            key = "accepted"
+        f[key] += 1
+        counts[key] += 1
+    counts["by_filter"] = by_filter
+    cfg = run.config
+    out = {
+        "target": cfg.target,
+        "measurements": cfg.measurements,
+        "seed": cfg.seed,
+        "prior": cfg.prior,
+        "prior_error": cfg.prior_error,
+        "duration_s": float(run.steps[-1].t),
+        "rate_hz": cfg.rate_hz,
+        "units": {"TU_s": TU, "LU_m": LU, "note": "errors in SI: m, m/s, MRP, rad/s, 1, rad, rad/s"},
+        "mode": run.steps[-1].mode,
+        "symmetry_detected": run.switch_time_s is not None,
+        "roll_ratio_median": float(np.median(run.roll_ratios[:, 1])) if len(run.roll_ratios) else None,
+        "switch_time_s": run.switch_time_s,
+        "components": comps,
+        "gate_counts": counts,
+        "shadow_switches": int(sum(s.shadow_switch for s in run.steps)),
+        "proxy_updates": run.proxy_updates,
+    }
+    if run.switch_time_s is not None:
+        last = run.steps[-1]
+        J_true = quat_to_dcm(run.truth.q_IT[-1])[:, 1]
+        out["axis_error_deg"] = float(np.rad2deg(np.arccos(np.clip(J_true @ last.axis_I, -1.0, 1.0))))
+        out["spin_quantities"] = {"e_rad_s": float(last.spin_e[0]), "e_sd_rad_s": float(last.spin_sd[0]), "wy_over_a_sq": float(last.spin_e[1]), "wy_over_a_sq_sd": float(last.spin_sd[1])}
+    return out
+
