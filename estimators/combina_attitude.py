@@ -117,9 +117,16 @@ class AttitudeUKF:
     Q : (8, 8) or callable, optional
         additive process noise per prediction, or ``Q(dt_s)``
         (e.g. :func:`attitude_process_noise`).
+    iterations : int
+        iterations of the posterior-linearised attitude correction
+        (:meth:`_correct_iterated`); 0 is the plain UKF correction.
+    iterate_k_sd : float
+        the correction iterates only while the prior's largest 1-σ of ``k``
+        exceeds this (the prediction's nonlinearity comes from ``k``; once
+        it is known the plain UKF is accurate and 4× cheaper).
     """
 
-    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (8,):
             raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")
@@ -133,6 +140,12 @@ class AttitudeUKF:
         self.max_step_s = float(max_step_s)
         self.max_angle_rad = float(max_angle_rad)
         self.Q = Q if (Q is None or callable(Q)) else np.asarray(Q, dtype=float)
+        if int(iterations) != iterations or iterations < 0:
+            raise ValueError(f"iterations must be a non-negative integer, got {iterations!r}")
+        self.iterations = int(iterations)
+        self.iterate_k_sd = float(iterate_k_sd)
+        self._prior = None
+        self._attitude_inn = None
         self.n_shadow_switches = 0
 
     @property
@@ -156,12 +169,9 @@ class AttitudeUKF:
         """``δσ`` with ``q_IT = q̂_IT ⊗ q(δσ)`` (``|δσ| ≤ 1``) — also the filter's attitude error convention."""
         return quat_to_mrp(quat_multiply(quat_conjugate(self.q_ref), q_IT))
 
-    def _propagate(self, X: np.ndarray, dt: float) -> np.ndarray:
-        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → propagated, as error MRPs about the propagated central point.
-
-        Sets ``q_ref`` to the propagated central point's attitude.
-        """
-        Y = np.concatenate([quat_multiply(self.q_ref, mrp_to_quat(X[:, SIGMA])), X[:, 3:]], axis=1)
+    def _integrate(self, X: np.ndarray, dt: float, q_ref: np.ndarray) -> np.ndarray:
+        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → ``[q_IT, ω, k]`` (9 columns) after ``dt`` (eqs 28–29, RK4 substeps)."""
+        Y = np.concatenate([quat_multiply(q_ref, mrp_to_quat(X[:, SIGMA])), X[:, 3:]], axis=1)
         w_max = float(np.max(np.linalg.norm(X[:, OMEGA], axis=1)))
         # a diverged filter's absurd rate must not stall the loop: at most 200 steps
         n_sub = min(max(1, int(np.ceil(dt / self.max_step_s)), int(np.ceil(w_max * dt / self.max_angle_rad))), 200)
@@ -173,6 +183,14 @@ class AttitudeUKF:
             k4 = attitude_rhs_quat(Y + h * k3)
             Y = Y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             Y[:, :4] = quat_normalize(Y[:, :4])
+        return Y
+
+    def _propagate(self, X: np.ndarray, dt: float) -> np.ndarray:
+        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → propagated, as error MRPs about the propagated central point.
+
+        Sets ``q_ref`` to the propagated central point's attitude.
+        """
+        Y = self._integrate(X, dt, self.q_ref)
         self.q_ref = _canonical_quat(Y[0, :4])
         return np.concatenate([self.error_mrp(Y[:, :4]), Y[:, 4:]], axis=1)  # canonical: the shadow choice per point
 
@@ -193,6 +211,9 @@ class AttitudeUKF:
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
         Q = self.Q(dt_s) if callable(self.Q) else self.Q
+        # the posterior this prediction starts from, for the iterated correction (δσ = 0 after the reset)
+        self._prior = (self.core.x.copy(), self.core.P.copy(), self.q_ref.copy(), float(dt_s), Q)
+        self._attitude_inn = None
         self.core.predict(lambda X: self._propagate(X, dt_s), Q=Q)
         # the mean error MRP moves into q̂ and the sigma points of eqs 14–17 are redrawn about it from P,
         # so that P, S and P_xz describe the same set of points
@@ -201,7 +222,9 @@ class AttitudeUKF:
     def innovation(self, q_IT_meas, R) -> Innovation:
         """Eqs 30, 15–17, 23 for a measured attitude (quaternion T to I) with error-MRP covariance ``R`` (3×3)."""
         z = self.error_mrp(np.asarray(q_IT_meas, dtype=float))
-        return self.core.innovation(z, R, lambda X: X[:, SIGMA])  # eq. 30
+        inn = self.core.innovation(z, R, lambda X: X[:, SIGMA])  # eq. 30
+        self._attitude_inn = (inn, np.asarray(R, dtype=float))
+        return inn
 
     def rate_proxy_innovation(self, rate_rad_s: float, var_rad2_s2: float) -> Innovation:
         """A proxy measurement of the spin rate ``|ω|`` (a light-curve prior), ``h(x) = |ω|``."""
@@ -212,9 +235,57 @@ class AttitudeUKF:
     def correct(self, inn: Innovation) -> bool:
         """Eqs 21–22, 24, then the reset of the error MRP into ``q̂``.
 
-        Returns whether the global MRP switched to its shadow set (eqs 31–32's event).
+        With ``iterations > 0`` and the attitude innovation of the last
+        prediction, the correction is the iterated posterior linearisation of
+        :meth:`_correct_iterated` instead. Returns whether the global MRP
+        switched to its shadow set (eqs 31–32's event).
         """
+        pending = getattr(self, "_attitude_inn", None)
+        if self.iterations > 0 and pending is not None and pending[0] is inn and self._prior is not None and np.sqrt(np.max(np.diag(self._prior[1])[K])) > self.iterate_k_sd:
+            self._attitude_inn = None
+            return self._correct_iterated(inn.z, pending[1])
         self.core.correct(inn)
+        return self._reset()
+
+    def _correct_iterated(self, z: np.ndarray, R: np.ndarray) -> bool:
+        """Iterated posterior linearisation of prediction + measurement (García-Fernández et al., IEEE TSP 2015).
+
+        The measured error MRP ``z`` (about the predicted ``q̂``) is a nonlinear
+        function of the state at the *previous* epoch, ``z = h(f(x_{k−1})) + v``
+        (eqs 28–30). While ``k`` is uncertain, one 3 s prediction of a fast
+        tumbler spreads the sigma points' ``ω`` by radians per second and their
+        attitude by more than π: the statistical linearisation about the
+        prior (the plain UKF) is then meaningless. Here ``h∘f`` is linearised
+        by statistical linear regression (``A``, ``b``, ``Ω``) over sigma points
+        drawn from the current *posterior* of ``x_{k−1}``; the prior of
+        ``x_{k−1}`` is updated with that linear model; repeat
+        ``iterations`` times; the posterior of ``x_{k−1}`` is then propagated
+        (eqs 10–13, plus ``Q``) to the measurement epoch. The first iteration
+        is the UKF's own linearisation; each later one is taken where the
+        posterior mass lies.
+        """
+        x0, P0, q0, dt, Q = self._prior
+        q_c = self.q_ref.copy()  # the chart of z
+        pts = self.core.points
+        Wm, Wc = pts.Wm, pts.Wc
+        m, Pm = x0.copy(), P0.copy()
+        for _ in range(self.iterations):
+            X = pts.sigma_points(m, Pm)
+            Y = self._integrate(X, dt, q0)
+            Z = quat_to_mrp(quat_multiply(quat_conjugate(q_c), Y[:, :4]))
+            z_bar = Wm @ Z
+            dX, dZ = X - m, Z - z_bar
+            Psi = (Wc[:, None] * dX).T @ dZ
+            A = np.linalg.solve(Pm, Psi).T  # (3, 8): A = Ψᵀ P⁻¹
+            Omega = (Wc[:, None] * dZ).T @ dZ - A @ Pm @ A.T
+            S = A @ P0 @ A.T + 0.5 * (Omega + Omega.T) + R
+            K = np.linalg.solve(S, A @ P0).T
+            m = x0 + K @ (z - z_bar - A @ (x0 - m))
+            Pm = P0 - K @ S @ K.T
+            Pm = 0.5 * (Pm + Pm.T)
+        self.q_ref = q0.copy()
+        self.core.x, self.core.P = m, Pm
+        self.core.predict(lambda X: self._propagate(X, dt), Q=Q)
         return self._reset()
 
 
