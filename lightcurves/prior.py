@@ -81,6 +81,8 @@ _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
 _TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
+_NUFFT_OVERSAMPLING = 3  #: astropy extirpolation grid (default 5): half the FFT length, same peaks and classifications (seeds 1, 2)
+_FAST = {"trig_sum_kwds": {"oversampling": _NUFFT_OVERSAMPLING}}
 _BATCH = 400_000  #: complex numbers per batch of the harmonic fits (memory bound)
 
 
@@ -309,7 +311,7 @@ def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.n
     d = np.concatenate(lags)
     h = np.exp(-d / tau)
     if freq.size > 64:
-        _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True)
+        _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True, oversampling=_NUFFT_OVERSAMPLING)
     else:
         C = np.cos(2.0 * np.pi * np.outer(freq, d)) @ h
     return np.maximum(1.0 + 2.0 * a * C / t.size, 0.05)
@@ -457,7 +459,7 @@ def extract_spin_prior(
     df = 1.0 / (_SAMPLES_PER_PEAK * T)
     freq = nu_min + df * np.arange(int((nu_max - nu_min) / df) + 1)
     ls = LombScargle(t, yd, dy, normalization="standard")
-    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12)
+    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12)
     # Step 3: candidates — periodogram peaks, their window aliases, sub-harmonics and harmonic 2.
     ipk = _local_maxima(power, _N_PEAKS, _SAMPLES_PER_PEAK)
     ipk = ipk[power[ipk] >= _PEAK_FLOOR * power[ipk[0]]]
@@ -546,7 +548,7 @@ def extract_spin_prior(
     # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
     ls_r = LombScargle(t, r, dy, normalization="standard")
     coarse = freq[::_SAMPLES_PER_PEAK]
-    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12))
+    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12))
     left = float(W @ r**2) / float(W @ (yd - np.average(yd, weights=W)) ** 2)
     continuum = left * np.interp(freq, coarse, _continuum(z_res, block=50))
     noise_spec = np.maximum(_red_spectrum(t, a_red, tau, freq), continuum)
