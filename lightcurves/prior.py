@@ -81,7 +81,9 @@ _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
 _TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
-_BATCH = 3_000_000  #: complex numbers per batch of the harmonic fits (memory bound)
+_NUFFT_OVERSAMPLING = 3  #: astropy extirpolation grid (default 5): half the FFT length, same peaks and classifications (seeds 1, 2)
+_FAST = {"trig_sum_kwds": {"oversampling": _NUFFT_OVERSAMPLING}}
+_BATCH = 400_000  #: complex numbers per batch of the harmonic fits (memory bound)
 
 
 @dataclass(frozen=True)
@@ -196,17 +198,21 @@ def _harmonic_chi2(tc: np.ndarray, V: np.ndarray, y: np.ndarray, W: np.ndarray, 
     VWV = V.T @ (W[:, None] * V)
     VWy = V.T @ (W * y)
     rhs_cols = np.concatenate([W[:, None] * V, (W * y)[:, None]], axis=1)  # (N, q+1)
-    step = max(1, _BATCH // (tc.size * (2 * K + 1)))
+    step = max(1, _BATCH // tc.size)
     for b0 in range(0, freqs.size, step):
         f = freqs[b0 : b0 + step]
         nb = f.size
         E = np.exp(2j * np.pi * f[:, None] * tc[None, :])
-        P = np.empty((nb, 2 * K + 1, tc.size), dtype=complex)
-        P[:, 0] = 1.0
+        T = np.empty((nb, 2 * K + 1), dtype=complex)  # C_m + i S_m
+        T[:, 0] = W.sum()
+        Q = np.empty((nb, K, q + 1), dtype=complex)  # Σ W V e^{ijθ}, Σ W y e^{ijθ}
+        P = E.copy()  # e^{imθ}, one power at a time (a (B, 2K+1, N) array costs more in memory traffic than it saves)
         for m in range(1, 2 * K + 1):
-            P[:, m] = P[:, m - 1] * E
-        T = P @ W  # (B, 2K+1): C_m + i S_m
-        Q = P[:, 1 : K + 1] @ rhs_cols  # (B, K, q+1): Σ W V e^{ijθ}, Σ W y e^{ijθ}
+            if m > 1:
+                P *= E
+            T[:, m] = P @ W
+            if m <= K:
+                Q[:, m - 1] = P @ rhs_cols
         C, S = T.real, T.imag
         CC = 0.5 * (C[:, dif] + C[:, sm])
         SS = 0.5 * (C[:, dif] - C[:, sm])
@@ -305,7 +311,7 @@ def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.n
     d = np.concatenate(lags)
     h = np.exp(-d / tau)
     if freq.size > 64:
-        _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True)
+        _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True, oversampling=_NUFFT_OVERSAMPLING)
     else:
         C = np.cos(2.0 * np.pi * np.outer(freq, d)) @ h
     return np.maximum(1.0 + 2.0 * a * C / t.size, 0.05)
@@ -453,7 +459,7 @@ def extract_spin_prior(
     df = 1.0 / (_SAMPLES_PER_PEAK * T)
     freq = nu_min + df * np.arange(int((nu_max - nu_min) / df) + 1)
     ls = LombScargle(t, yd, dy, normalization="standard")
-    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12)
+    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12)
     # Step 3: candidates — periodogram peaks, their window aliases, sub-harmonics and harmonic 2.
     ipk = _local_maxima(power, _N_PEAKS, _SAMPLES_PER_PEAK)
     ipk = ipk[power[ipk] >= _PEAK_FLOOR * power[ipk[0]]]
@@ -542,7 +548,7 @@ def extract_spin_prior(
     # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
     ls_r = LombScargle(t, r, dy, normalization="standard")
     coarse = freq[::_SAMPLES_PER_PEAK]
-    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True), 0.0, 1.0 - 1e-12))
+    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12))
     left = float(W @ r**2) / float(W @ (yd - np.average(yd, weights=W)) ** 2)
     continuum = left * np.interp(freq, coarse, _continuum(z_res, block=50))
     noise_spec = np.maximum(_red_spectrum(t, a_red, tau, freq), continuum)
@@ -596,7 +602,7 @@ def extract_spin_prior(
 
         def chi2_two(fs):
             X2 = np.concatenate([V, *(np.column_stack([np.cos(2 * np.pi * f * tc), np.sin(2 * np.pi * f * tc)]) for f in fs)], axis=1) * w[:, None]
-            c2, *_ = np.linalg.lstsq(X2, y * w, rcond=None)
+            c2 = np.linalg.solve(X2.T @ X2 + 1e-12 * np.trace(X2.T @ X2) * np.eye(7), X2.T @ (y * w))  # normal equations: 7 columns, well conditioned at distinct frequencies; an SVD per step cost 20 % of the run
             e = y * w - X2 @ c2
             return float(e @ e), c2
 
