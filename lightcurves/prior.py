@@ -590,6 +590,10 @@ def extract_spin_prior(
     var_f = s2_res * _ou_quadratic(t, u, a_red, tau)
     sigma_stat = 2.0 * np.pi * float(np.sqrt(max(var_f, 0.0)))
     sigma_syn = _bisector_rate(t, sun_dir, observer_dir, phase_angle_rad)
+    if sun_dir is None and observer_dir is None and phase_angle_rad is None:
+        # without geometry the synodic offset is unknown, and on long arcs it dominates the error
+        warnings.append("no viewing geometry given (sun_dir/observer_dir or phase_angle_rad): the 1-σ leaves out the "
+                        "synodic offset, which dominates on long arcs (0.1 % of the rate for a GPS-like orbit)")
     # Step 7: non-principal-axis tumbling — (a) a strong residual frequency that is no harmonic of f_rot, or
     # (b) two unrelated sinusoids (the two strongest periodogram peaks, refined) fit better than the harmonic series (BIC).
     p_r = np.clip(ls_r.power(peaks, method="cython"), 0.0, 1.0 - 1e-12)  # a second strong frequency is among the peaks

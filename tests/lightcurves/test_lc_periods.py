@@ -94,6 +94,22 @@ def test_three_cycles_of_a_sinusoid_give_the_rate_not_a_third_of_it():
     assert p.rate_deg_s == pytest.approx(6.0, rel=0.005)
 
 
+def test_the_synodic_term_enters_the_sigma_only_with_geometry_and_its_absence_is_said():
+    """The 1-σ adds the bisector's turning rate in quadrature; without geometry it says it cannot."""
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 600.0, 1.0)
+    y = 10 + 0.3 * np.cos(2 * np.pi * t / 60) + rng.normal(0, 0.02, t.size)
+    bare = extract_spin_prior(t, y)
+    assert bare.rate_sigma_synodic_rad_s == 0.0 and any("no viewing geometry" in w for w in bare.warnings)
+    # the bisector of a Sun fixed along x and an observer turning at 1e-4 rad/s in the x-y plane turns at 5e-5 rad/s
+    sun = np.tile([1.0, 0.0, 0.0], (t.size, 1))
+    obs = np.column_stack([np.cos(1e-4 * t + 0.5), np.sin(1e-4 * t + 0.5), np.zeros(t.size)])
+    geo = extract_spin_prior(t, y, sun_dir=sun, observer_dir=obs)
+    assert geo.rate_sigma_synodic_rad_s == pytest.approx(5e-5, rel=1e-6)
+    assert geo.rate_sigma_rad_s == pytest.approx(np.hypot(geo.rate_sigma_statistical_rad_s, 5e-5), rel=1e-9)
+    assert not any("no viewing geometry" in w for w in geo.warnings)
+
+
 def test_less_than_one_turn_is_refused_with_a_warning():
     """Issue 13: a 300 s arc at 1 deg/s (0.83 turn) returned 1.997 deg/s with no warning."""
     rng = np.random.default_rng(2)
