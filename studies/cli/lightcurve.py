@@ -156,7 +156,7 @@ def prior(
     else:
         typer.echo(p.decision)
     for w in [] if as_json else p.warnings:
-        typer.echo(f"  warning: {w}", err=True)
+        typer.echo(f"lcnav: warning: {w}", err=True)
     if record is not None:
         write_lightcurve_recording(record, lc, p)
 
