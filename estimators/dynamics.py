@@ -33,23 +33,12 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from estimators.attitude import quat_conjugate, quat_multiply, quat_to_dcm
+from estimators.state import JOINT_S, JOINT_X, K, N_ABSOLUTE, N_STATE, Q_IB, Q_TS, R_I, R_ST_T, V_I, V_ST_T, W_B, W_ST_T
 
 MU_EARTH = 3.986004418e14
 """Earth's gravitational parameter, m³/s² (EGM96/WGS-84)."""
 R_EARTH = 6378137.0
 """Earth's equatorial radius, m (WGS-84)."""
-
-#: Layout of the 15-state relative vector (eq. 17 of Renis et al.).
-STATE_SLICES = {
-    "q_TS": slice(0, 4),
-    "w_ST_T": slice(4, 7),
-    "r_ST_T": slice(7, 10),
-    "v_ST_T": slice(10, 13),
-    "k": slice(13, 15),
-}
-#: Layout of an absolute rigid-body state: position, velocity (ECI), attitude q_IB, rate in B.
-ABS_SLICES = {"r_I": slice(0, 3), "v_I": slice(3, 6), "q_IB": slice(6, 10), "w_B": slice(10, 13)}
-
 
 # ---------------------------------------------------------------- inertia
 
@@ -95,16 +84,6 @@ def orbital_energy(r_I, v_I, mu: float = MU_EARTH) -> np.ndarray:
 # ---------------------------------------------------------------- absolute motion
 
 
-def absolute_rhs(t: float, y, J_diag, mu: float = MU_EARTH) -> np.ndarray:
-    """Keplerian orbit plus torque-free attitude, ``y = [r_I, v_I, q_IB, ω_B]`` (13).
-
-    ``q̇_IB = ½ q_IB ⊗ [0, ω_B]`` (DESIGN.md), ``ω̇_B`` from Euler's equations.
-    Compiled (:func:`absolute_rhs_nb`): the truth integrations call it tens of
-    thousands of times, and the relative model uses it for the servicer.
-    """
-    return absolute_rhs_nb(np.asarray(y, dtype=float), np.asarray(J_diag, dtype=float), float(mu))
-
-
 @dataclass(frozen=True)
 class AbsoluteTrajectory:
     """A body's absolute state sampled at ``t`` (s), with the dense solution kept."""
@@ -115,23 +94,23 @@ class AbsoluteTrajectory:
 
     @property
     def r_I(self) -> np.ndarray:
-        return self.y[:, 0:3]
+        return self.y[:, R_I]
 
     @property
     def v_I(self) -> np.ndarray:
-        return self.y[:, 3:6]
+        return self.y[:, V_I]
 
     @property
     def q_IB(self) -> np.ndarray:
-        return self.y[:, 6:10]
+        return self.y[:, Q_IB]
 
     @property
     def w_B(self) -> np.ndarray:
-        return self.y[:, 10:13]
+        return self.y[:, W_B]
 
 
 def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1e-12, atol: float = 1e-12) -> AbsoluteTrajectory:
-    """Truth integration of :func:`absolute_rhs` with DOP853 at tight tolerances.
+    """Truth integration of :func:`absolute_rhs_nb` with DOP853 at tight tolerances.
 
     Position and velocity are integrated in units scaled by the initial radius and
     circular speed so that one ``atol`` fits every component.
@@ -139,7 +118,7 @@ def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1
     y0 = np.asarray(y0, dtype=float)
     t_eval = np.asarray(t_eval, dtype=float)
     J = np.asarray(J_diag, dtype=float)
-    L = np.linalg.norm(y0[0:3])
+    L = np.linalg.norm(y0[R_I])
     V = np.sqrt(mu / L)
     scale = np.concatenate([np.full(3, L), np.full(3, V), np.ones(7)])
 
@@ -150,7 +129,7 @@ def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1
     if not sol.success:
         raise RuntimeError(f"truth integration failed: {sol.message}")
     y = sol.y.T * scale
-    y[:, 6:10] /= np.linalg.norm(y[:, 6:10], axis=1, keepdims=True)
+    y[:, Q_IB] /= np.linalg.norm(y[:, Q_IB], axis=1, keepdims=True)
     return AbsoluteTrajectory(t=t_eval, y=y, J_diag=J)
 
 
@@ -191,14 +170,14 @@ def relative_state(target: np.ndarray, servicer: np.ndarray, k) -> np.ndarray:
     """
     tg = np.asarray(target, dtype=float)
     sv = np.asarray(servicer, dtype=float)
-    q_TS = quat_multiply(quat_conjugate(tg[..., 6:10]), sv[..., 6:10])
+    q_TS = quat_multiply(quat_conjugate(tg[..., Q_IB]), sv[..., Q_IB])
     q_TS = q_TS * np.where(q_TS[..., :1] < 0, -1.0, 1.0)
     R_TS = quat_to_dcm(q_TS)
-    R_TI = np.swapaxes(quat_to_dcm(tg[..., 6:10]), -1, -2)
-    w_T = tg[..., 10:13]
-    w_ST = np.einsum("...ij,...j->...i", R_TS, sv[..., 10:13]) - w_T
-    r = np.einsum("...ij,...j->...i", R_TI, sv[..., 0:3] - tg[..., 0:3])
-    v = np.einsum("...ij,...j->...i", R_TI, sv[..., 3:6] - tg[..., 3:6]) - np.cross(w_T, r)
+    R_TI = np.swapaxes(quat_to_dcm(tg[..., Q_IB]), -1, -2)
+    w_T = tg[..., W_B]
+    w_ST = np.einsum("...ij,...j->...i", R_TS, sv[..., W_B]) - w_T
+    r = np.einsum("...ij,...j->...i", R_TI, sv[..., R_I] - tg[..., R_I])
+    v = np.einsum("...ij,...j->...i", R_TI, sv[..., V_I] - tg[..., V_I]) - np.cross(w_T, r)
     kk = np.broadcast_to(np.asarray(k, dtype=float), q_TS.shape[:-1] + (2,))
     return np.concatenate([q_TS, w_ST, r, v, kk], axis=-1)
 
@@ -246,20 +225,24 @@ def quat_to_dcm_nb(q):
 
 @numba.njit(cache=True)
 def absolute_rhs_nb(s, J, mu):
-    """Compiled :func:`absolute_rhs`: ``ṡ`` of ``s = [r_I, v_I, q_IB, ω_B]``."""
-    out = np.empty(13)
-    r = s[0:3]
-    q = s[6:10]
-    w = s[10:13]
+    """Keplerian orbit plus torque-free attitude: ``ṡ`` of ``s = [r_I, v_I, q_IB, ω_B]`` (13), compiled.
+
+    ``q̇_IB = ½ q_IB ⊗ [0, ω_B]`` (DESIGN.md), ``ω̇_B`` from Euler's equations. The truth
+    integrations call it tens of thousands of times, and the relative model uses it for the servicer.
+    """
+    out = np.empty(N_ABSOLUTE)
+    r = s[R_I]
+    q = s[Q_IB]
+    w = s[W_B]
     rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-    out[0:3] = s[3:6]
-    out[3:6] = -mu * r / rn**3
+    out[R_I] = s[V_I]
+    out[V_I] = -mu * r / rn**3
     # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of Renis et al.)
     out[6] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
     out[7] = 0.5 * (q[0] * w[0] - q[3] * w[1] + q[2] * w[2])
     out[8] = 0.5 * (q[3] * w[0] + q[0] * w[1] - q[1] * w[2])
     out[9] = 0.5 * (-q[2] * w[0] + q[1] * w[1] + q[0] * w[2])
-    out[10:13] = -cross3(w, J * w) / J
+    out[W_B] = -cross3(w, J * w) / J
     return out
 
 
@@ -271,24 +254,25 @@ def joint_rhs(z, J_S, mu):
     is the servicer's own absolute state (its AODS), propagated alongside so
     the relative model always sees the servicer at the right instant.
     """
-    x = z[:15]
-    s = z[15:]
-    out = np.empty(28)
-    q = x[0:4]
-    w = x[4:7]  # ω_ST_T, rate of S relative to T, in T
-    r = x[7:10]
-    v = x[10:13]
-    JT = np.array([np.exp(x[13]), 1.0, np.exp(-x[14])])
+    x = z[JOINT_X]
+    s = z[JOINT_S]
+    out = np.empty(N_STATE + N_ABSOLUTE)
+    q = x[Q_TS]
+    w = x[W_ST_T]  # ω_ST_T, rate of S relative to T, in T
+    r = x[R_ST_T]
+    v = x[V_ST_T]
+    k1, k2 = x[K]
+    JT = np.array([np.exp(k1), 1.0, np.exp(-k2)])
 
-    r_SI = s[0:3]
-    q_IS = s[6:10]
-    w_S = s[10:13]
+    r_SI = s[R_I]
+    q_IS = s[Q_IB]
+    w_S = s[W_B]
     R_TS = quat_to_dcm_nb(q)
     R_IS = quat_to_dcm_nb(q_IS)
     # servicer: Kepler + Euler
     rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
-    out[15:28] = absolute_rhs_nb(s, J_S, mu)
-    dw_S = out[25:28]
+    out[JOINT_S] = absolute_rhs_nb(s, J_S, mu)
+    dw_S = out[JOINT_S][W_B]
 
     # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
     out[0] = 0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3])
@@ -300,17 +284,16 @@ def joint_rhs(z, J_S, mu):
     w_T = w_S_T - w  # eq. 1 solved for the target's own rate
     dw_T = -cross3(w_T, JT * w_T) / JT  # eq. 6, torque-free
     # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
-    out[4:7] = cross3(w, w_S_T) + mat_vec(R_TS, dw_S) - dw_T
+    out[W_ST_T] = cross3(w, w_S_T) + mat_vec(R_TS, dw_S) - dw_T
 
     # translation, eqs 8–15 via the transport theorem in the rotating T frame
     r_S_T = mat_vec(R_TS, mat_vec(R_IS.T, r_SI))  # servicer position from Earth's centre, in T
     r_T_T = r_S_T - r
     rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
     a_I_T = -mu * r_S_T / rs**3 + mu * r_T_T / rt**3  # eqs 12–14
-    out[7:10] = v
-    out[10:13] = a_I_T - 2.0 * cross3(w_T, v) - cross3(dw_T, r) - cross3(w_T, cross3(w_T, r))
-    out[13] = 0.0
-    out[14] = 0.0
+    out[R_ST_T] = v
+    out[V_ST_T] = a_I_T - 2.0 * cross3(w_T, v) - cross3(dw_T, r) - cross3(w_T, cross3(w_T, r))
+    out[K] = 0.0
     return out
 
 
@@ -345,18 +328,18 @@ def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
     s = np.asarray(servicer, dtype=float)
     J = np.asarray(J_S_diag, dtype=float)
     if x.ndim == 1:
-        return joint_rhs(np.concatenate([x, s]), J, mu)[:15]
-    return np.stack([joint_rhs(np.concatenate([xi, s]), J, mu)[:15] for xi in x])
+        return joint_rhs(np.concatenate([x, s]), J, mu)[JOINT_X]
+    return np.stack([joint_rhs(np.concatenate([xi, s]), J, mu)[JOINT_X] for xi in x])
 
 
 @numba.njit(cache=True)
 def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
     n_out = n_steps // stride + 1
-    xs = np.empty((n_out, 15))
-    ss = np.empty((n_out, 13))
-    z = np.empty(28)
-    z[:15] = x0
-    z[15:] = s0
+    xs = np.empty((n_out, N_STATE))
+    ss = np.empty((n_out, N_ABSOLUTE))
+    z = np.empty(N_STATE + N_ABSOLUTE)
+    z[JOINT_X] = x0
+    z[JOINT_S] = s0
     xs[0] = x0
     ss[0] = s0
     j = 1
@@ -367,8 +350,8 @@ def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
         k4 = joint_rhs(z + dt * k3, J_S, mu)
         z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         if (i + 1) % stride == 0:
-            xs[j] = z[:15]
-            ss[j] = z[15:]
+            xs[j] = z[JOINT_X]
+            ss[j] = z[JOINT_S]
             j += 1
     return xs, ss
 
@@ -393,7 +376,7 @@ def propagate_relative(x0, servicer0, J_S_diag, dt: float, n_steps: int, *, stri
         raise ValueError(f"dt must be positive and finite, got {dt!r}")
     x0 = np.asarray(x0, dtype=float)
     s0 = np.asarray(servicer0, dtype=float)
-    if x0.shape != (15,) or s0.shape != (13,):
+    if x0.shape != (N_STATE,) or s0.shape != (N_ABSOLUTE,):
         raise ValueError(f"expected x0 of shape (15,) and servicer of shape (13,), got {x0.shape}, {s0.shape}")
     return _rk4_joint(x0, s0, np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps), int(stride))
 

@@ -24,19 +24,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-N_STATE = 15
-N_ERROR = 14
+from estimators.state import DTHETA, DX_ADDITIVE, N_ADDITIVE, N_ERROR, N_STATE, Q_TS, X_ADDITIVE
+
 #: GRP scale ``f`` with ``a = 1`` (Crassidis & Markley 2003, eq. 33): ``δp = f · MRP``.
 GRP_F = 4.0
-
-#: Slices of the error state per component group.
-ERROR_SLICES = {
-    "q": slice(0, 3),
-    "w": slice(3, 6),
-    "r": slice(6, 9),
-    "v": slice(9, 12),
-    "k": slice(12, 14),
-}
 
 
 def _as_rows(a: np.ndarray, lead: tuple) -> np.ndarray:
@@ -131,10 +122,10 @@ def boxplus(x, dx) -> np.ndarray:
     """``x ⊞ δx``: ``(..., 15)`` state and ``(..., 14)`` error → ``(..., 15)`` state."""
     x = np.asarray(x, dtype=float)
     dx = np.asarray(dx, dtype=float)
-    rest = x[..., 4:] + dx[..., 3:]
+    rest = x[..., X_ADDITIVE] + dx[..., DX_ADDITIVE]
     out = np.empty(rest.shape[:-1] + (N_STATE,))
-    out[..., 0:4] = apply_attitude_error(dx[..., 0:3], x[..., 0:4])
-    out[..., 4:] = rest
+    out[..., Q_TS] = apply_attitude_error(dx[..., DTHETA], x[..., Q_TS])
+    out[..., X_ADDITIVE] = rest
     return out
 
 
@@ -142,10 +133,10 @@ def boxminus(x, x_ref) -> np.ndarray:
     """``x ⊟ x_ref``: the error state ``(..., 14)`` that takes ``x_ref`` to ``x``."""
     x = np.asarray(x, dtype=float)
     x_ref = np.asarray(x_ref, dtype=float)
-    rest = x[..., 4:] - x_ref[..., 4:]
+    rest = x[..., X_ADDITIVE] - x_ref[..., X_ADDITIVE]
     out = np.empty(rest.shape[:-1] + (N_ERROR,))
-    out[..., 0:3] = attitude_error(x[..., 0:4], x_ref[..., 0:4])
-    out[..., 3:] = rest
+    out[..., DTHETA] = attitude_error(x[..., Q_TS], x_ref[..., Q_TS])
+    out[..., DX_ADDITIVE] = rest
     return out
 
 
@@ -171,8 +162,8 @@ def state_to_error_jacobians(x_in, x_out):
     """
     G_in = np.zeros((N_STATE, N_ERROR))
     G_out = np.zeros((N_ERROR, N_STATE))
-    G_in[0:4, 0:3] = attitude_chart_jacobians(x_in[0:4])[0]
-    G_out[0:3, 0:4] = attitude_chart_jacobians(x_out[0:4])[1]
-    G_in[4:, 3:] = np.eye(11)
-    G_out[3:, 4:] = np.eye(11)
+    G_in[Q_TS, DTHETA] = attitude_chart_jacobians(x_in[Q_TS])[0]
+    G_out[DTHETA, Q_TS] = attitude_chart_jacobians(x_out[Q_TS])[1]
+    G_in[X_ADDITIVE, DX_ADDITIVE] = np.eye(N_ADDITIVE)
+    G_out[DX_ADDITIVE, X_ADDITIVE] = np.eye(N_ADDITIVE)
     return G_in, G_out

@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimators.gates import GateDecision, chi_square_gate
+from estimators.state import N_STATE, Q_TS
 
 
 class NonFiniteError(ValueError):
@@ -119,8 +120,8 @@ class KalmanFilterBase:
         x0 = np.array(x0, dtype=float)
         if x0.shape != (n,) or not np.all(np.isfinite(x0)):
             raise ValueError(f"x0 must be {n} finite numbers, got shape {x0.shape}")
-        if n == 15:
-            x0[0:4] = x0[0:4] / np.linalg.norm(x0[0:4])
+        if n == N_STATE:
+            x0[Q_TS] = x0[Q_TS] / np.linalg.norm(x0[Q_TS])
         self.x = x0
         self.P = _check_covariance(P0, m, "P_0", definite=True)
         self.Q = _check_covariance(Q, m, "Q_d", definite=False)

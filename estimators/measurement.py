@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.attitude import quat_to_dcm, skew
-from estimators.error_state import N_ERROR, attitude_error
+from estimators.error_state import attitude_error
+from estimators.state import DR_ST_T, DTHETA, DW_ST_T, N_ERROR, Q_TS, R_ST_T, W_ST_T
 
 
 def _cov(R, m: int, name: str) -> np.ndarray:
@@ -99,16 +100,16 @@ class PoseNoise:
         return AttitudeMeasurement(R=self.R_attitude), PositionMeasurement(R=self.R_position)
 
 
-def _selection(first: int) -> np.ndarray:
-    """``H = [0 … I₃ … 0]`` (3 × 14) picking the error states ``first … first + 2``; read-only, built once."""
+def _selection(block: slice) -> np.ndarray:
+    """``H = [0 … I₃ … 0]`` (3 × 14) picking the error states ``block``; read-only, built once."""
     H = np.zeros((3, N_ERROR))
-    H[:, first : first + 3] = np.eye(3)
+    H[:, block] = np.eye(3)
     H.setflags(write=False)
     return H
 
 
-_H_ATTITUDE = _selection(0)
-_H_POSITION = _selection(6)
+_H_ATTITUDE = _selection(DTHETA)
+_H_POSITION = _selection(DR_ST_T)
 
 
 @dataclass(frozen=True)
@@ -127,10 +128,10 @@ class AttitudeMeasurement:
         q = _finite(z, (4,), "q_TS")
         if abs(np.linalg.norm(q) - 1.0) > 1e-6:
             raise ValueError(f"measurement q_TS must be a unit quaternion, |q| = {np.linalg.norm(q)!r}")
-        return attitude_error(q, np.asarray(x_ref)[0:4])
+        return attitude_error(q, np.asarray(x_ref)[Q_TS])
 
     def h_chart(self, X, x_ref) -> np.ndarray:
-        return attitude_error(np.asarray(X)[..., 0:4], np.asarray(x_ref)[0:4])
+        return attitude_error(np.asarray(X)[..., Q_TS], np.asarray(x_ref)[Q_TS])
 
     def jacobian(self, x) -> np.ndarray:
         return _H_ATTITUDE
@@ -152,7 +153,7 @@ class PositionMeasurement:
         return _finite(z, (3,), "r_ST_T")
 
     def h_chart(self, X, x_ref) -> np.ndarray:
-        return np.asarray(X)[..., 7:10]
+        return np.asarray(X)[..., R_ST_T]
 
     def jacobian(self, x) -> np.ndarray:
         return _H_POSITION
@@ -184,12 +185,12 @@ class TargetRateMeasurement:
 
     def h_chart(self, X, x_ref) -> np.ndarray:
         X = np.asarray(X)
-        return np.einsum("...ij,j->...i", quat_to_dcm(X[..., 0:4]), self.w_S_S) - X[..., 4:7]
+        return np.einsum("...ij,j->...i", quat_to_dcm(X[..., Q_TS]), self.w_S_S) - X[..., W_ST_T]
 
     def jacobian(self, x) -> np.ndarray:
         H = np.zeros((3, N_ERROR))
-        H[:, 0:3] = -skew(quat_to_dcm(np.asarray(x)[0:4]) @ self.w_S_S)
-        H[:, 3:6] = -np.eye(3)
+        H[:, DTHETA] = -skew(quat_to_dcm(np.asarray(x)[Q_TS]) @ self.w_S_S)
+        H[:, DW_ST_T] = -np.eye(3)
         return H
 
 

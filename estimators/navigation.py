@@ -14,12 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.ekf import ExtendedKalmanFilter
-from estimators.error_state import ERROR_SLICES, N_ERROR
 from estimators.gates import GateDecision
 from estimators.measurement import PoseNoise
-from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, SpinPrior, rate_proxy
+from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, rate_proxy
 from estimators.process_model import RelativeProcessModel
 from estimators.reacquisition import Reacquisition
+from estimators.state import DK, N_ABSOLUTE, N_ERROR, N_STATE
 from estimators.tuning import Tuning
 from estimators.ukf import UnscentedKalmanFilter
 
@@ -75,7 +75,7 @@ def run_navigation(
     P0=None,
     gate_confidence: float | None = 0.99,
     gate_start_s: float = 0.0,
-    prior: SpinPrior | None = None,
+    prior: BodyRatePrior | None = None,
     proxy: str | None = None,
     R_w: float = R_OMEGA_PROXY,
     reacquire_window: int | None = 5,
@@ -99,7 +99,7 @@ def run_navigation(
     """
     t = np.asarray(t, dtype=float)
     servicer = np.asarray(servicer, dtype=float)
-    if t.ndim != 1 or len(t) < 2 or servicer.shape != (len(t), 13):
+    if t.ndim != 1 or len(t) < 2 or servicer.shape != (len(t), N_ABSOLUTE):
         raise ValueError(f"t must be (N>=2,) and servicer (N, 13), got {t.shape} and {servicer.shape}")
     steps = np.diff(t)
     tau = float(steps[0])
@@ -126,15 +126,15 @@ def run_navigation(
     att, pos = pose_noise.sources()
 
     n = len(t)
-    xs = np.empty((n, 15))
-    Ps = np.empty((n, 14, 14))
+    xs = np.empty((n, N_STATE))
+    Ps = np.empty((n, N_ERROR, N_ERROR))
     nis = {s: np.full(n, np.nan) for s in SOURCES}
     accepted = {s: np.zeros(n, dtype=bool) for s in SOURCES}
     proxy_used = np.zeros(n, dtype=bool)
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
-    settle_consider = np.union1d(consider, np.arange(N_ERROR)[ERROR_SLICES["k"]]).astype(int)
+    settle_consider = np.union1d(consider, np.arange(N_ERROR)[DK]).astype(int)
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
             settling = t[k - 1] - t[0] < tuning.settling_s

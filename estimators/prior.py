@@ -1,8 +1,11 @@
 """Spin priors in the filter (Renis et al. §5.3, §6): tuning, initialisation, proxy measurement.
 
-A :class:`SpinPrior` is the target's rate in its own principal-axes frame,
-``ω_T_T`` (rad/s), with a 1-σ per axis — what light-curve analysis gives
-(the light-curve issue), or the truth with a percentage error as in §5.3.
+A :class:`BodyRatePrior` is the target's rate vector in its own principal-axes frame,
+``ω_T_T`` (rad/s), with a 1-σ per axis. A light curve gives only the rate's
+magnitude and its 1-σ (:class:`lightcurves.prior.SpinPrior`, the one rate prior);
+:meth:`lightcurves.prior.SpinPrior.body_rate_prior` turns it into this vector about
+an assumed spin axis. :meth:`BodyRatePrior.from_truth` makes the truth with a
+percentage error as in §5.3.
 Its three uses, each a switch of the caller:
 
 1. **tuning** — :func:`tuning_for_prior` names the scenario-specific tuning
@@ -26,15 +29,24 @@ import numpy as np
 
 from estimators.attitude import quat_to_dcm
 from estimators.measurement import TargetRateMeasurement
+from estimators.state import DW_ST_T, Q_TS, W_B, W_ST_T
 
 PROXY_MODES = ("always", "on_reject")
 #: ``R_ω`` of §6.3, (rad/s)².
 R_OMEGA_PROXY = 1e-3
 
 
+def _unit(axis) -> np.ndarray:
+    a = np.asarray(axis, dtype=float)
+    n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
+    if not (np.isfinite(n) and n > 0):
+        raise ValueError(f"spin axis must be a non-zero 3-vector in the target frame, got {axis!r}")
+    return a / n
+
+
 @dataclass(frozen=True)
-class SpinPrior:
-    """The target's spin ``w_T_T_rad_s`` (3,) in its body frame and its 1-σ ``sigma_rad_s`` (3,)."""
+class BodyRatePrior:
+    """The filters' prior: the target's spin ``w_T_T_rad_s`` (3,) in its body frame and its 1-σ ``sigma_rad_s`` (3,)."""
 
     w_T_T_rad_s: np.ndarray
     sigma_rad_s: np.ndarray
@@ -53,7 +65,7 @@ class SpinPrior:
         object.__setattr__(self, "sigma_rad_s", s)
 
     @classmethod
-    def from_truth(cls, w_T_T_true, error_fraction: float) -> "SpinPrior":
+    def from_truth(cls, w_T_T_true, error_fraction: float) -> "BodyRatePrior":
         """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3: 5 %).
 
         A light curve measures the period, so the error is on the rate's
@@ -65,35 +77,31 @@ class SpinPrior:
         sigma = error_fraction * max(float(np.linalg.norm(w)), 1e-6)
         return cls((1.0 + error_fraction) * w, np.full(3, sigma), source=f"truth {100 * error_fraction:+.1f}%")
 
+    @classmethod
+    def from_rate(cls, rate_rad_s, sigma_rad_s, axis_T=(0.0, 0.0, 1.0), source: str = "light curve") -> "BodyRatePrior":
+        """A prior from a rate magnitude and its 1-σ — what a light curve gives — about an assumed axis.
 
-def _unit(axis) -> np.ndarray:
-    a = np.asarray(axis, dtype=float)
-    n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
-    if not (np.isfinite(n) and n > 0):
-        raise ValueError(f"spin axis must be a non-zero 3-vector in the target frame, got {axis!r}")
-    return a / n
+        A light curve gives the spin rate, not its axis or sense; ``axis_T`` (unit
+        vector in the target's principal frame, default ``z_T``, the paper's
+        one-axis tumbles) supplies them. ``rate_rad_s`` of ``None`` (no significant
+        period) is refused: a prior without a rate cannot be used.
 
-
-def prior_from_rate(rate_rad_s, sigma_rad_s, axis_T=(0.0, 0.0, 1.0), source: str = "light curve") -> SpinPrior:
-    """A prior from a rate magnitude and its 1-σ — what a light curve gives — about an assumed axis.
-
-    A light curve gives the spin rate, not its axis or sense; ``axis_T`` (unit
-    vector in the target's principal frame, default ``z_T``, the paper's
-    one-axis tumbles) supplies them. ``rate_rad_s`` of ``None`` (no significant
-    period) is refused: a prior without a rate cannot be used.
-    """
-    if rate_rad_s is None:
-        raise ValueError("spin prior has no rate (the light curve gave no significant period)")
-    r = float(rate_rad_s)
-    s = None if sigma_rad_s is None else float(sigma_rad_s)
-    if not (np.isfinite(r) and r >= 0):
-        raise ValueError(f"spin prior rate must be a finite rate >= 0 (rad/s), got {rate_rad_s!r}")
-    if s is None or not (np.isfinite(s) and s > 0):
-        raise ValueError(f"spin prior sigma_rad_s must be positive (rad/s), got {sigma_rad_s!r}")
-    return SpinPrior(r * _unit(axis_T), np.full(3, s), source=source)
+        Given a light curve's :class:`lightcurves.prior.SpinPrior`, call its
+        :meth:`~lightcurves.prior.SpinPrior.body_rate_prior`; this constructor is for
+        a rate and 1-σ read from elsewhere (``lcnav run --prior-json``).
+        """
+        if rate_rad_s is None:
+            raise ValueError("spin prior has no rate (the light curve gave no significant period)")
+        r = float(rate_rad_s)
+        s = None if sigma_rad_s is None else float(sigma_rad_s)
+        if not (np.isfinite(r) and r >= 0):
+            raise ValueError(f"spin prior rate must be a finite rate >= 0 (rad/s), got {rate_rad_s!r}")
+        if s is None or not (np.isfinite(s) and s > 0):
+            raise ValueError(f"spin prior sigma_rad_s must be positive (rad/s), got {sigma_rad_s!r}")
+        return cls(r * _unit(axis_T), np.full(3, s), source=source)
 
 
-def tuning_for_prior(prior: SpinPrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0) -> str:
+def tuning_for_prior(prior: BodyRatePrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0) -> str:
     """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of Renis et al.).
 
     Fast if ``|ω| ≥ fast_rad_s`` (Table 1: slow 0.05, fast 0.2/0.18 rad/s);
@@ -106,7 +114,7 @@ def tuning_for_prior(prior: SpinPrior, *, fast_rad_s: float = 0.1, single_axis_d
     return {(True, False): "sc1", (True, True): "sc2", (False, False): "sc3", (False, True): "sc4"}[(one_axis, fast)]
 
 
-def initialize_with_prior(x0, P0, prior: SpinPrior, servicer) -> tuple[np.ndarray, np.ndarray]:
+def initialize_with_prior(x0, P0, prior: BodyRatePrior, servicer) -> tuple[np.ndarray, np.ndarray]:
     """``x̂_0`` with ``ω̂_ST_0 = R(q̂_TS,0) ω_S_S − ω_prior`` and ``P_0``'s ω block ``diag(σ²)``.
 
     ``servicer``: the servicer's absolute state (13) at ``t_0``. Cross terms of
@@ -114,15 +122,15 @@ def initialize_with_prior(x0, P0, prior: SpinPrior, servicer) -> tuple[np.ndarra
     """
     x0 = np.array(x0, dtype=float)
     P0 = np.array(P0, dtype=float)
-    w_S = np.asarray(servicer, dtype=float)[10:13]
-    x0[4:7] = quat_to_dcm(x0[0:4] / np.linalg.norm(x0[0:4])) @ w_S - prior.w_T_T_rad_s
-    P0[3:6, :] = 0.0
-    P0[:, 3:6] = 0.0
-    P0[3:6, 3:6] = np.diag(prior.sigma_rad_s**2)
+    w_S = np.asarray(servicer, dtype=float)[W_B]
+    x0[W_ST_T] = quat_to_dcm(x0[Q_TS] / np.linalg.norm(x0[Q_TS])) @ w_S - prior.w_T_T_rad_s
+    P0[DW_ST_T, :] = 0.0
+    P0[:, DW_ST_T] = 0.0
+    P0[DW_ST_T, DW_ST_T] = np.diag(prior.sigma_rad_s**2)
     return x0, P0
 
 
-def rate_proxy(prior: SpinPrior, servicer, R_w: float = R_OMEGA_PROXY) -> tuple[TargetRateMeasurement, np.ndarray]:
+def rate_proxy(prior: BodyRatePrior, servicer, R_w: float = R_OMEGA_PROXY) -> tuple[TargetRateMeasurement, np.ndarray]:
     """``(source, z)``: the prior as a fictitious measurement of ``ω_T_T`` for ``update``."""
-    src = TargetRateMeasurement(w_S_S=np.asarray(servicer, dtype=float)[10:13], R=R_w * np.eye(3))
+    src = TargetRateMeasurement(w_S_S=np.asarray(servicer, dtype=float)[W_B], R=R_w * np.eye(3))
     return src, prior.w_T_T_rad_s

@@ -32,6 +32,7 @@ import numpy as np
 
 from estimators.dynamics import MU_EARTH, cross3, joint_rhs, mat_mat, mat_vec, quat_to_dcm_nb, propagate_relative, propagate_relative_batch
 from estimators.error_state import boxminus, boxplus, state_to_error_jacobians
+from estimators.state import JOINT_S, JOINT_X, K, N_ABSOLUTE, N_ERROR, N_STATE, Q_IB, Q_TS, R_I, R_ST_T, V_ST_T, W_B, W_ST_T
 
 
 @numba.njit(cache=True)
@@ -68,18 +69,19 @@ def _jac(z, J_S, mu):
     * ``a = a_I − 2 ω_T × v − ω̇_T × r − ω_T × (ω_T × r)`` with
       ``a_I = −μ r_S_T/r_S³ + μ r_T_T/|r_T_T|³``, ``r_S_T = R p``, ``r_T_T = R p − r``.
     """
-    x = z[:15]
-    s = z[15:]
-    q = x[0:4]
-    w = x[4:7]
-    r = x[7:10]
-    v = x[10:13]
-    e1 = np.exp(x[13])
-    em2 = np.exp(-x[14])
+    x = z[JOINT_X]
+    s = z[JOINT_S]
+    q = x[Q_TS]
+    w = x[W_ST_T]
+    r = x[R_ST_T]
+    v = x[V_ST_T]
+    k1, k2 = x[K]
+    e1 = np.exp(k1)
+    em2 = np.exp(-k2)
     JT = np.array([e1, 1.0, em2])
-    r_SI = s[0:3]
-    q_IS = s[6:10]
-    w_S = s[10:13]
+    r_SI = s[R_I]
+    q_IS = s[Q_IB]
+    w_S = s[W_B]
     R = quat_to_dcm_nb(q)
     R_IS = quat_to_dcm_nb(q_IS)
     dw_S = -cross3(w_S, J_S * w_S) / J_S
@@ -102,22 +104,22 @@ def _jac(z, J_S, mu):
     Dk[1, 1] = -em2 * p20
     Dk[2, 1] = c2 * p01b
 
-    A = np.zeros((15, 15))
-    # quaternion kinematics: q̇ = ½ [0, ω] ⊗ q
+    A = np.zeros((N_STATE, N_STATE))
+    # quaternion kinematics: q̇ = ½ [0, ω] ⊗ q; rows/columns 0 and 1:4 are q_TS's scalar and vector parts
     A[0, 1:4] = -0.5 * w
     A[1:4, 0] = 0.5 * w
     A[1:4, 1:4] = 0.5 * _skew(w)
-    A[0, 4:7] = -0.5 * q[1:4]
-    A[1:4, 4:7] = 0.5 * (q[0] * np.eye(3) - _skew(q[1:4]))
+    A[0, W_ST_T] = -0.5 * q[1:4]
+    A[1:4, W_ST_T] = 0.5 * (q[0] * np.eye(3) - _skew(q[1:4]))
 
     dRwS = _dRu(q, w_S)
     # relative angular acceleration (eq. 7)
-    A[4:7, 0:4] = mat_mat(_skew(w), dRwS) + _dRu(q, dw_S) - mat_mat(E, dRwS)
-    A[4:7, 4:7] = -_skew(w_S_T) + E
-    A[4:7, 13:15] = -Dk
+    A[W_ST_T, Q_TS] = mat_mat(_skew(w), dRwS) + _dRu(q, dw_S) - mat_mat(E, dRwS)
+    A[W_ST_T, W_ST_T] = -_skew(w_S_T) + E
+    A[W_ST_T, K] = -Dk
 
     # translation (eqs 8-15)
-    A[7:10, 10:13] = np.eye(3)
+    A[R_ST_T, V_ST_T] = np.eye(3)
     p = mat_vec(R_IS.T, r_SI)
     r_S_T = mat_vec(R, p)
     r_T_T = r_S_T - r
@@ -128,22 +130,22 @@ def _jac(z, J_S, mu):
     wr = w_T[0] * r[0] + w_T[1] * r[1] + w_T[2] * r[2]
     # total ∂a/∂ω_T, including the path through ω̇_T
     M = 2.0 * _skew(v) + mat_mat(_skew(r), E) - wr * np.eye(3) - np.outer(w_T, r) + 2.0 * np.outer(r, w_T)
-    A[10:13, 0:4] = (-mu / rs**3) * dRp + mat_mat(G, dRp) + mat_mat(M, dRwS)
-    A[10:13, 4:7] = -M
+    A[V_ST_T, Q_TS] = (-mu / rs**3) * dRp + mat_mat(G, dRp) + mat_mat(M, dRwS)
+    A[V_ST_T, W_ST_T] = -M
     Sw = _skew(w_T)
-    A[10:13, 7:10] = -G - _skew(dw_T) - mat_mat(Sw, Sw)
-    A[10:13, 10:13] = -2.0 * Sw
-    A[10:13, 13:15] = mat_mat(_skew(r), Dk)
+    A[V_ST_T, R_ST_T] = -G - _skew(dw_T) - mat_mat(Sw, Sw)
+    A[V_ST_T, V_ST_T] = -2.0 * Sw
+    A[V_ST_T, K] = mat_mat(_skew(r), Dk)
     return A
 
 
 @numba.njit(cache=True)
 def _rk4_stm(x0, s0, J_S, mu, dt, n_steps):
     """RK4 of ``[x, s]`` together with ``Φ̇ = A Φ`` at the same stages; returns ``(x, s, Φ)``."""
-    z = np.empty(28)
-    z[:15] = x0
-    z[15:] = s0
-    Phi = np.eye(15)
+    z = np.empty(N_STATE + N_ABSOLUTE)
+    z[JOINT_X] = x0
+    z[JOINT_S] = s0
+    Phi = np.eye(N_STATE)
     for _ in range(n_steps):
         k1 = joint_rhs(z, J_S, mu)
         K1 = _jac(z, J_S, mu) @ Phi
@@ -158,7 +160,7 @@ def _rk4_stm(x0, s0, J_S, mu, dt, n_steps):
         K4 = _jac(z4, J_S, mu) @ (Phi + dt * K3)
         z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         Phi = Phi + dt / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)
-    return z[:15].copy(), z[15:].copy(), Phi
+    return z[JOINT_X].copy(), z[JOINT_S].copy(), Phi
 
 
 @numba.njit(cache=True)
@@ -169,8 +171,8 @@ def _rk4_error_state(x0, s0, J_S, mu, dt, n_steps):
     (the last two steps cost ~30 µs as numpy calls).
     """
     x1, _, Phi = _rk4_stm(x0, s0, J_S, mu, dt, n_steps)
-    q = x1[0:4]
-    x1[0:4] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    q = x1[Q_TS]
+    x1[Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     G_in, G_out = state_to_error_jacobians(x0, x1)
     return x1, G_out @ Phi @ G_in
 
@@ -199,8 +201,8 @@ class RelativeProcessModel:
     J_S_diag: np.ndarray
     max_step_s: float = 0.25
     mu: float = MU_EARTH
-    n_state: int = field(default=15, init=False)
-    n_error: int = field(default=14, init=False)
+    n_state: int = field(default=N_STATE, init=False)
+    n_error: int = field(default=N_ERROR, init=False)
 
     def __post_init__(self):
         J = np.asarray(self.J_S_diag, dtype=float)
@@ -224,7 +226,7 @@ class RelativeProcessModel:
     @staticmethod
     def _normalized(x: np.ndarray) -> np.ndarray:
         x = np.array(x, dtype=float)
-        x[..., 0:4] /= np.linalg.norm(x[..., 0:4], axis=-1, keepdims=True)
+        x[..., Q_TS] /= np.linalg.norm(x[..., Q_TS], axis=-1, keepdims=True)
         return x
 
     def propagate(self, x, servicer, dt: float) -> np.ndarray:

@@ -50,7 +50,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import chi2
 
-from estimators.error_state import ERROR_SLICES, N_ERROR
+from estimators.state import ERROR_GROUPS, N_ERROR
 
 #: Error-state blocks a camera source observes: its own and its rate.
 SOURCE_BLOCKS = {"attitude": ("q", "w"), "position": ("r", "v")}
@@ -139,7 +139,7 @@ class Reacquisition:
         fit = fit_line([b[0] for b in buf], np.array([b[1] for b in buf]), source.R)
         if fit.residual_chi2 > chi2.ppf(self.confidence, fit.dof):
             return False
-        own, rate = (np.arange(N_ERROR)[ERROR_SLICES[g]] for g in SOURCE_BLOCKS[source.name])
+        own, rate = (np.arange(N_ERROR)[ERROR_GROUPS[g]] for g in SOURCE_BLOCKS[source.name])
         m = own.size
         scale = np.ones(N_ERROR)
         scale[own] = np.sqrt(inflation(fit.b, filt.P[np.ix_(own, own)], fit.C[:m, :m]))

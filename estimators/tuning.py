@@ -75,7 +75,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimators.error_state import N_ERROR
+from estimators.state import N_ERROR
 
 
 def _q(att, w, r, v, k) -> np.ndarray:

@@ -136,6 +136,19 @@ class SpinPrior:
     def period_s(self) -> float | None:
         return None if self.frequency_hz is None else 1.0 / self.frequency_hz
 
+    def body_rate_prior(self, axis_T=(0.0, 0.0, 1.0), source: str = "light curve"):
+        """The filters' prior, :class:`estimators.prior.BodyRatePrior`: ``ω_T = rate · â`` with 1-σ ``σ_rate`` per axis.
+
+        The light curve gives the rate, not the spin axis or its sense: ``axis_T``
+        (a non-zero vector in the target's principal frame, default ``z_T``) is an
+        assumption the caller makes. Refused (``ValueError``) without a significant period.
+        """
+        from estimators.prior import BodyRatePrior  # lightcurves needs the filters only here
+
+        if not self.significant:
+            raise ValueError(f"spin prior has no rate (the light curve gave no significant period: {self.decision})")
+        return BodyRatePrior.from_rate(self.rate_rad_s, self.rate_sigma_rad_s, axis_T, source=source)
+
     @cached_property
     def spectrum(self) -> WindowCleanResult:
         """WindowCLEAN spectrum of the detrended series (computed on first use)."""

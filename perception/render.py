@@ -39,6 +39,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from estimators.attitude import quat_to_dcm
+from estimators.state import Q_TS, R_ST_T
 from lightcurves import scene as lscene
 from lightcurves.targets import Target
 
@@ -125,8 +126,8 @@ def pose_from_relative_state(x) -> tuple[np.ndarray, np.ndarray]:
     so the target relative to the camera is ``r_TC_C = −C_CT r_ST_T``.
     """
     x = np.asarray(x, dtype=float)
-    C_CT = quat_to_dcm(x[0:4]).T
-    return C_CT, -C_CT @ x[7:10]
+    C_CT = quat_to_dcm(x[Q_TS]).T
+    return C_CT, -C_CT @ x[R_ST_T]
 
 
 def pointing_dcm(los_I, up_I) -> np.ndarray:

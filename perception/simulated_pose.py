@@ -31,6 +31,7 @@ import numpy as np
 
 from estimators.attitude import quat_multiply, rotvec_to_quat
 from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.state import Q_TS, R_ST_T
 
 
 @dataclass(frozen=True)
@@ -122,12 +123,12 @@ def simulate_pose_measurements(
     for start, length in faults:
         faulty |= (t_meas >= start) & (t_meas < start + length)
 
-    rng_m = np.linalg.norm(x[:, 7:10], axis=1)
+    rng_m = np.linalg.norm(x[:, R_ST_T], axis=1)
     s_r = sigma_r_m * (rng_m / reference_range_m if range_scaling else np.ones(n))
     s_r = np.where(faulty, fault_sigma_r_m, s_r)
     s_q = np.where(faulty, fault_sigma_q_rad, sigma_q_rad)
     dq = rotvec_to_quat(_noise_vectors(rng, s_q, n, noise))
-    q = quat_multiply(x[:, 0:4], dq)  # eq. 33
+    q = quat_multiply(x[:, Q_TS], dq)  # eq. 33
     q = q * np.where(q[:, :1] < 0, -1.0, 1.0)
-    r = x[:, 7:10] + _noise_vectors(rng, s_r, n, noise)
+    r = x[:, R_ST_T] + _noise_vectors(rng, s_r, n, noise)
     return PoseMeasurements(t=t_meas, q_TS=q, r_ST_T=r, faulty=faulty, sigma_q_rad=float(sigma_q_rad), sigma_r_m=s_r, noise=noise)

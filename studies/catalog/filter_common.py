@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
-from estimators.prior import SpinPrior
+from estimators.prior import BodyRatePrior
 from studies.engine.config import ConfigError, Field
 from studies.engine.io import atomic_path
 
@@ -55,7 +55,7 @@ def thresholds(params) -> dict:
             "r": float(params["threshold_pos_m"]), "v": float(params["threshold_vel_m_s"]), "k": float(params["threshold_k"])}
 
 
-def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random.Generator) -> SpinPrior:
+def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random.Generator) -> BodyRatePrior:
     """A prior off the true rate by ``error_fraction`` of its magnitude (§5.3).
 
     ``direction="along"``: ``(1 + e) ω`` (a light curve's period error);
@@ -66,9 +66,9 @@ def draw_prior(w_T_T_true, error_fraction: float, direction: str, rng: np.random
     u /= np.linalg.norm(u)
     w = np.asarray(w_T_T_true, dtype=float)
     if direction == "along":
-        return SpinPrior.from_truth(w, error_fraction)
+        return BodyRatePrior.from_truth(w, error_fraction)
     n = float(np.linalg.norm(w))
-    return SpinPrior(w + error_fraction * n * u, np.full(3, error_fraction * max(n, 1e-6)), source=f"truth ± {100 * error_fraction:.1f}% random direction")
+    return BodyRatePrior(w + error_fraction * n * u, np.full(3, error_fraction * max(n, 1e-6)), source=f"truth ± {100 * error_fraction:.1f}% random direction")
 
 
 def median_interval(x, confidence: float = 0.95) -> tuple[float, float, float]:

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
+from estimators.state import W_B, W_ST_T
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, draw_prior, median_interval, metric_tables, paired_error_figure,
@@ -75,7 +76,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
-    w_true = tr.target[0, 10:13]
+    w_true = tr.target[0, W_B]
     prior = draw_prior(w_true, p["prior_rate_error"], p["prior_error_direction"], rng)  # drawn in both arms (paired streams)
     run, meas = navigate(
         tr, p["filter"], get_tuning(p["tuning"]), rng, prior=prior, prior_use="init" if p["prior"] else "none",
@@ -91,7 +92,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     return {
         "n_steps": len(tr.t),
         "prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - w_true)),
-        "w0_err_rad_s": float(np.linalg.norm(run.x[0, 4:7] - tr.x[0, 4:7])),
+        "w0_err_rad_s": float(np.linalg.norm(run.x[0, W_ST_T] - tr.x[0, W_ST_T])),
         **run_metrics(tr, run, thresholds(p)),
     }
 

@@ -28,6 +28,7 @@ import pandas as pd
 
 from estimators.navigation import FILTERS, SOURCES
 from estimators.prior import PROXY_MODES
+from estimators.state import W_B
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, check_common, draw_prior, median_interval, paired_error_figure,
@@ -93,7 +94,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
-    prior = draw_prior(tr.target[0, 10:13], p["prior_rate_error"], p["prior_error_direction"], rng)
+    prior = draw_prior(tr.target[0, W_B], p["prior_rate_error"], p["prior_error_direction"], rng)
     scale = p["fault_sigma_scale"]
     run, meas = navigate(
         tr, p["filter"], get_tuning(p["tuning"]), rng, prior=prior, prior_use="proxy" if p["proxy"] else "init",
@@ -117,7 +118,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         "fault_q_err_rms_rad": _rms(q_f), "fault_q_err_max_rad": float(q_f.max()),
         "fault_r_err_rms_m": _rms(err["err_r"].to_numpy()[fault]),
         "pre_fault_w_err_rad_s": float(err["err_w"].to_numpy()[np.flatnonzero(t < p["fault_start_s"])[-1]]),
-        "prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - tr.target[0, 10:13])),
+        "prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - tr.target[0, W_B])),
     })
     k_fault = np.flatnonzero(fault)
     for s in SOURCES:

@@ -33,6 +33,7 @@ import pandas as pd
 
 from estimators.attitude import attitude_angle, random_quaternion
 from estimators.dynamics import angular_momentum_norm, propagate_relative, rotational_energy
+from estimators.state import Q_TS, R_I, R_ST_T, W_B, W_ST_T
 from studies.recording.blueprint import run_blueprint, send_estimate, send_truth
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
@@ -97,33 +98,33 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     truth = simulate_truth(sc, p["duration_s"], p["dt_s"])
     stride = int(round(p["dt_s"] / p["rk4_dt_s"]))
     x_rk4, s_rk4 = propagate_relative(truth.x[0], truth.servicer[0], truth.J_S_diag, p["rk4_dt_s"], (len(truth.t) - 1) * stride, stride=stride)
-    pos_err = np.linalg.norm(x_rk4[:, 7:10] - truth.x[:, 7:10], axis=1)
-    att_err = attitude_angle(x_rk4[:, 0:4], truth.x[:, 0:4])
-    rate_err = np.linalg.norm(x_rk4[:, 4:7] - truth.x[:, 4:7], axis=1)
-    w_T = truth.target[:, 10:13]
+    pos_err = np.linalg.norm(x_rk4[:, R_ST_T] - truth.x[:, R_ST_T], axis=1)
+    att_err = attitude_angle(x_rk4[:, Q_TS], truth.x[:, Q_TS])
+    rate_err = np.linalg.norm(x_rk4[:, W_ST_T] - truth.x[:, W_ST_T], axis=1)
+    w_T = truth.target[:, W_B]
     energy = rotational_energy(w_T, truth.J_T_diag)
     momentum = angular_momentum_norm(w_T, truth.J_T_diag)
-    rng_m = np.linalg.norm(truth.x[:, 7:10], axis=1)
+    rng_m = np.linalg.norm(truth.x[:, R_ST_T], axis=1)
     if p["record"]:
         with recording(workdir / "run.rrd", recording_id=f"truth-{spec.run_id}", blueprint=run_blueprint(
             quantities=["w_ST_T", "r_ST_T", "range_m"], filters=["rk4"]
         )) as rec:
             log_truth(rec, truth)
-            send_truth(rec, "r_ST_T", truth.t, truth.x[:, 7:10])
-            send_estimate(rec, "rk4", "w_ST_T", truth.t, x_rk4[:, 4:7], truth=truth.x[:, 4:7])
-            send_estimate(rec, "rk4", "r_ST_T", truth.t, x_rk4[:, 7:10], truth=truth.x[:, 7:10])
+            send_truth(rec, "r_ST_T", truth.t, truth.x[:, R_ST_T])
+            send_estimate(rec, "rk4", "w_ST_T", truth.t, x_rk4[:, W_ST_T], truth=truth.x[:, W_ST_T])
+            send_estimate(rec, "rk4", "r_ST_T", truth.t, x_rk4[:, R_ST_T], truth=truth.x[:, R_ST_T])
     return {
         "n_samples": len(truth.t),
         "range_min_m": float(rng_m.min()),
         "range_mean_m": float(rng_m.mean()),
         "range_max_m": float(rng_m.max()),
-        "quat_norm_err_max": float(np.abs(np.linalg.norm(truth.x[:, 0:4], axis=1) - 1.0).max()),
+        "quat_norm_err_max": float(np.abs(np.linalg.norm(truth.x[:, Q_TS], axis=1) - 1.0).max()),
         "energy_drift_rel": float(np.ptp(energy) / energy[0]),
         "momentum_drift_rel": float(np.ptp(momentum) / momentum[0]),
         "rk4_pos_err_max_m": float(pos_err.max()),
         "rk4_att_err_max_rad": float(att_err.max()),
         "rk4_rate_err_max_rad_s": float(rate_err.max()),
-        "rk4_servicer_pos_err_max_m": float(np.linalg.norm(s_rk4[:, 0:3] - truth.servicer[:, 0:3], axis=1).max()),
+        "rk4_servicer_pos_err_max_m": float(np.linalg.norm(s_rk4[:, R_I] - truth.servicer[:, R_I], axis=1).max()),
         "rk4_within_tolerance": bool(pos_err.max() < p["rk4_tolerance_m"]),
     }
 

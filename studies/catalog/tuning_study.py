@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from estimators.error_state import ERROR_SLICES
 from estimators.navigation import FILTERS
+from estimators.state import ERROR_GROUPS
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
@@ -106,7 +106,7 @@ def grid_tuning(params) -> Tuning:
     q = base.q_rate.copy()
     for block, group in BLOCKS.items():
         if f"q_exp_{block}" in params:
-            q[ERROR_SLICES[group]] = 10.0 ** params[f"q_exp_{block}"]
+            q[ERROR_GROUPS[group]] = 10.0 ** params[f"q_exp_{block}"]
     return Tuning(f"grid-{params.get('q_index', 0)}", q, base.p0_diag)
 
 

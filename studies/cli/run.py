@@ -33,7 +33,8 @@ import typer
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
-from estimators.prior import PROXY_MODES, SpinPrior, prior_from_rate, tuning_for_prior
+from estimators.prior import PROXY_MODES, BodyRatePrior, tuning_for_prior
+from estimators.state import W_B
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from perception.simulated_pose import parse_faults
 from studies.engine import validate as v
@@ -119,7 +120,7 @@ def _read_prior_json(path: Path, axis: str):
     max_rate = np.radians(MAX_RATE_DEG_S)
     rate = v.check_number(f"{where}: rate_rad_s", d["rate_rad_s"], 0.0, max_rate, unit="rad/s")
     sigma = v.check_number(f"{where}: rate_sigma_rad_s", d.get("rate_sigma_rad_s"), 0.0, max_rate, lo_open=True, unit="rad/s")
-    return prior_from_rate(rate, sigma, _floats(axis, 3, "--prior-axis"), source=str(path))
+    return BodyRatePrior.from_rate(rate, sigma, _floats(axis, 3, "--prior-axis"), source=str(path))
 
 
 def _metrics_dict(m) -> dict:
@@ -195,7 +196,7 @@ class RunSetup:
     filter: str
     tuning: Tuning
     P0: np.ndarray
-    spin: SpinPrior | None
+    spin: BodyRatePrior | None
     prior_use: str
     proxy_mode: str
     faults: tuple
@@ -210,7 +211,7 @@ class RunSetup:
     config: dict  #: the options as metrics.json records them
 
 
-def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> SpinPrior | None:
+def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyRatePrior | None:
     if prior_json is not None and prior_rate_deg_s is not None:
         raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
     if prior_json is not None:
@@ -220,7 +221,7 @@ def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> SpinP
     if not prior_rate_deg_s.strip():
         raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
     w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
-    return SpinPrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
+    return BodyRatePrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
 
 
 def _parse_faults(fault: str | None) -> tuple:
@@ -258,7 +259,7 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
     tr = simulate_truth(sc, duration, dt)
     if spin is None and prior != "none":
-        spin = SpinPrior.from_truth(tr.target[0, 10:13], prior_error)
+        spin = BodyRatePrior.from_truth(tr.target[0, W_B], prior_error)
     tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
     tun = get_tuning(tuning_name)
     consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()

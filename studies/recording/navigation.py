@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.error_state import ERROR_SLICES, boxminus
+from estimators.error_state import boxminus
 from estimators.navigation import SOURCES, NavigationRun
+from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T, K, Q_TS, R_ST_T, V_ST_T, W_ST_T
 from studies.recording.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
 from studies.recording.writer import recording, send_scalars, set_sim_time
 from studies.sim.truth import Truth
@@ -25,13 +26,13 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
 
     f, t = run.filter, tr.t
     sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
-    quantities = {"w_ST_T": (slice(4, 7), ERROR_SLICES["w"], AXES), "r_ST_T": (slice(7, 10), ERROR_SLICES["r"], AXES),
-                  "v_ST_T": (slice(10, 13), ERROR_SLICES["v"], AXES), "k": (slice(13, 15), ERROR_SLICES["k"], ("k1", "k2"))}
+    quantities = {"w_ST_T": (W_ST_T, DW_ST_T, AXES), "r_ST_T": (R_ST_T, DR_ST_T, AXES),
+                  "v_ST_T": (V_ST_T, DV_ST_T, AXES), "k": (K, DK, ("k1", "k2"))}
     blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
     with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
-        send_quaternion(rec, f, "q_TS", t, run.x[:, 0:4], tr.x[:, 0:4], QUAT_AXES)
+        send_quaternion(rec, f, "q_TS", t, run.x[:, Q_TS], tr.x[:, Q_TS], QUAT_AXES)
         # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
-        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, 0:3], sig[:, ERROR_SLICES["q"]])
+        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, DTHETA], sig[:, DTHETA])
         for name, (sl, esl, axes) in quantities.items():
             send_truth(rec, name, t, tr.x[:, sl], axes)
             send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)

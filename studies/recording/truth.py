@@ -16,6 +16,7 @@ import numpy as np
 import rerun.blueprint as rrb
 
 from estimators.attitude import quat_conjugate, quat_to_dcm
+from estimators.state import Q_TS, R_ST_T, W_B, W_ST_T
 from studies.recording.blueprint import run_blueprint
 from studies.recording.writer import recording, send_poses, send_scalars
 from studies.sim.truth import Truth
@@ -55,11 +56,11 @@ def log_truth(rec, truth: Truth) -> None:
     """Log the truth entities of :func:`record_truth` into the open recording ``rec``."""
     import rerun as rr
 
-    q_ST = quat_conjugate(truth.x[:, 0:4])
-    r_TS_S = -np.einsum("nij,nj->ni", quat_to_dcm(q_ST), truth.x[:, 7:10])
+    q_ST = quat_conjugate(truth.x[:, Q_TS])
+    r_TS_S = -np.einsum("nij,nj->ni", quat_to_dcm(q_ST), truth.x[:, R_ST_T])
     rec.log("/truth/target", rr.Boxes3D(half_sizes=[equivalent_box_half_sizes(truth.J_T_diag)], colors=[[200, 160, 60]]), static=True)
     rec.log("/truth/servicer", rr.Boxes3D(half_sizes=[[1.0, 1.0, 1.0]], colors=[[90, 140, 220]]), static=True)
     send_poses(rec, "/truth/target", truth.t, r_TS_S, q_ST)
-    send_scalars(rec, "/truth/w_ST_T", truth.t, truth.x[:, 4:7], ["x", "y", "z"])
-    send_scalars(rec, "/truth/w_T_T", truth.t, truth.target[:, 10:13], ["x", "y", "z"])
-    send_scalars(rec, "/truth/range_m", truth.t, np.linalg.norm(truth.x[:, 7:10], axis=1))
+    send_scalars(rec, "/truth/w_ST_T", truth.t, truth.x[:, W_ST_T], ["x", "y", "z"])
+    send_scalars(rec, "/truth/w_T_T", truth.t, truth.target[:, W_B], ["x", "y", "z"])
+    send_scalars(rec, "/truth/range_m", truth.t, np.linalg.norm(truth.x[:, R_ST_T], axis=1))

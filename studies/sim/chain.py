@@ -9,7 +9,7 @@ The chain of Renis et al. §5–6 end to end:
    (:func:`lightcurves.extract_spin_prior`, Renis et al. §2.3);
 2. the light curve gives a *rate* and its 1-σ, not an axis: the prior vector
    is ``ω_prior = rate · â`` with 1-σ ``σ_rate`` on every axis
-   (:func:`estimators.prior.prior_from_rate`), where ``â`` is an **assumed**
+   (:meth:`lightcurves.prior.SpinPrior.body_rate_prior`), where ``â`` is an **assumed**
    spin axis in the target frame — here the scenario's true initial spin axis
    ``ω_T0/|ω_T0|`` (for a two-axis tumble such as SC3 this is the assumption
    that the axis is known from elsewhere, e.g. resolved imaging; the light
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.prior import SpinPrior, prior_from_rate, tuning_for_prior
+from estimators.prior import BodyRatePrior, tuning_for_prior
 from estimators.tuning import get_tuning
 from lightcurves.simulate import SimulatedLightCurve
 from studies.engine.io import atomic_path
@@ -59,7 +59,7 @@ class RenderedPrior:
     extracted: object  #: :class:`lightcurves.prior.SpinPrior` (rate, 1-σ, spectrum, candidates)
     truth_rate_rad_s: float  #: the rate the light curve was rendered with
     axis_T: np.ndarray  #: the assumed spin axis (unit, target frame)
-    spin: SpinPrior | None  #: the filters' prior; None when the light curve gave no significant period
+    spin: BodyRatePrior | None  #: the filters' prior; None when the light curve gave no significant period
 
     @property
     def rate_error(self) -> float:
@@ -72,7 +72,7 @@ class RenderedPrior:
         """One sentence: how the rate became an ω vector, and what was assumed."""
         a = ", ".join(f"{v:+.3f}" for v in self.axis_T)
         return (f"prior ω_T = rate × â with â = ({a}) in the target frame T, 1-σ = σ_rate on each axis "
-                f"(estimators.prior.prior_from_rate). The light curve gives the rate only: the axis â (and the sense of "
+                f"(lightcurves.SpinPrior.body_rate_prior). The light curve gives the rate only: the axis â (and the sense of "
                 f"rotation) is an ASSUMPTION — here the scenario's true initial spin axis ω_T0/|ω_T0|.")
 
 
@@ -120,11 +120,11 @@ def render_prior(
                                    observer_dir=sim.observation.observer_dir_I)
     spin = None
     if extracted.significant:
-        spin = prior_from_rate(extracted.rate_rad_s, extracted.rate_sigma_rad_s, axis_T, source=f"light curve of {target}")
+        spin = extracted.body_rate_prior(axis_T, source=f"light curve of {target}")
     return RenderedPrior(sim, extracted, rate, axis_T, spin)
 
 
-def arm_tuning(arm: str, spin: SpinPrior | None) -> str:
+def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:
     """The tuning name an arm uses: ``general`` without a prior, else the one the prior points to."""
     if arm not in ARMS:
         raise ValueError(f"arm must be one of {ARMS}, got {arm!r}")
@@ -135,7 +135,7 @@ def arm_tuning(arm: str, spin: SpinPrior | None) -> str:
     return tuning_for_prior(spin)
 
 
-def navigate(truth: Truth, filter_name: str, arm: str, spin: SpinPrior | None, measurement_seed: int, *,
+def navigate(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior | None, measurement_seed: int, *,
              faults=(), gate_confidence: float = 0.99, gate_start_s: float = 10.0):
     """One filter run in one arm: ``(NavigationRun, measurements, tuning name)``.
 
@@ -146,11 +146,11 @@ def navigate(truth: Truth, filter_name: str, arm: str, spin: SpinPrior | None, m
     """
     from estimators.measurement import PoseNoise
     from studies.sim.navigation import navigate as navigate_once
-    from studies.sim.navigation import one_axis
+    from studies.sim.navigation import K_STATES, one_axis
 
     tuning_name = arm_tuning(arm, spin)
     tun = get_tuning(tuning_name)
-    consider = (12, 13) if one_axis(truth.scenario.w_T0_T_rad_s) else ()
+    consider = K_STATES if one_axis(truth.scenario.w_T0_T_rad_s) else ()
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
     run, meas = navigate_once(truth, filter_name, tun, np.random.default_rng(measurement_seed), prior=spin, prior_use=use,
                               proxy_mode="always", faults=faults, pose_noise=PoseNoise(model="isotropic"), gate_confidence=gate_confidence,
@@ -260,7 +260,8 @@ def plot_spectrum(rendered: RenderedPrior, path: Path) -> None:
 
 def plot_errors(truth: Truth, run, path: Path, title: str) -> None:
     """Error against time with ±3σ of the filter, per group (attitude as a rotation vector, ω, r, v, k)."""
-    from estimators.error_state import ERROR_SLICES, boxminus
+    from estimators.error_state import boxminus
+    from estimators.state import ERROR_GROUPS
 
     plt = _pyplot()
     t = truth.t - truth.t[0]
@@ -269,7 +270,7 @@ def plot_errors(truth: Truth, run, path: Path, title: str) -> None:
     fig, axes = plt.subplots(len(GROUPS), 1, figsize=(8, 10), sharex=True, layout="constrained")
     colours = ("tab:blue", "tab:orange", "tab:green")
     for ax, g in zip(axes, GROUPS):
-        sl = ERROR_SLICES[g]
+        sl = ERROR_GROUPS[g]
         names = ("k1", "k2") if g == "k" else ("x", "y", "z")
         for j, (name, c) in enumerate(zip(names, colours)):
             i = sl.start + j

@@ -45,7 +45,8 @@ import numpy as np
 from scipy.stats import chi2
 
 from estimators.attitude import attitude_angle
-from estimators.error_state import ERROR_SLICES, boxminus
+from estimators.error_state import boxminus
+from estimators.state import ERROR_GROUPS, N_ERROR, N_STATE, Q_TS, STATE_GROUPS
 
 GROUPS = ("q", "w", "r", "v", "k")
 #: Unit of each group's error magnitude (for tables, figures and printed summaries).
@@ -54,7 +55,6 @@ UNITS = {"q": "rad", "w": "rad/s", "r": "m", "v": "m/s", "k": "-"}
 DEFAULT_THRESHOLDS = {"q": float(np.radians(2.0)), "w": float(np.radians(2.0)), "r": 1.0, "v": 0.1, "k": 0.2}
 #: Settling time (s since the first sample) after which NEES and NIS are tested.
 SETTLING_S = 60.0
-_STATE_SLICES = {"w": slice(4, 7), "r": slice(7, 10), "v": slice(10, 13), "k": slice(13, 15)}
 
 
 @dataclass(frozen=True)
@@ -69,21 +69,22 @@ def state_errors(x_est, x_true) -> dict[str, np.ndarray]:
     """Per-step error magnitude per group (N,) against the truth (state based)."""
     x_est = np.asarray(x_est, dtype=float)
     x_true = np.asarray(x_true, dtype=float)
-    if x_est.shape != x_true.shape or x_est.shape[-1] != 15:
+    if x_est.shape != x_true.shape or x_est.shape[-1] != N_STATE:
         raise ValueError(f"x_est and x_true must both be (N, 15), got {x_est.shape} and {x_true.shape}")
-    out = {"q": attitude_angle(x_est[..., 0:4], x_true[..., 0:4])}
-    for g, sl in _STATE_SLICES.items():
-        out[g] = np.linalg.norm(x_est[..., sl] - x_true[..., sl], axis=-1)
+    out = {"q": attitude_angle(x_est[..., Q_TS], x_true[..., Q_TS])}
+    for g, sl in STATE_GROUPS.items():
+        if g != "q":  # the attitude error is an angle, not a difference of quaternions
+            out[g] = np.linalg.norm(x_est[..., sl] - x_true[..., sl], axis=-1)
     return out
 
 
 def filter_sigmas(P) -> dict[str, np.ndarray]:
     """Per-step 1-σ per group (N,): ``√trace`` of the group's block of ``P`` (filter based)."""
     P = np.asarray(P, dtype=float)
-    if P.shape[-2:] != (14, 14):
+    if P.shape[-2:] != (N_ERROR, N_ERROR):
         raise ValueError(f"P must be (N, 14, 14), got {P.shape}")
     d = np.diagonal(P, axis1=-2, axis2=-1)
-    return {g: np.sqrt(np.sum(d[..., sl], axis=-1)) for g, sl in ERROR_SLICES.items()}
+    return {g: np.sqrt(np.sum(d[..., sl], axis=-1)) for g, sl in ERROR_GROUPS.items()}
 
 
 def convergence_time(t, m, threshold: float) -> float:

@@ -29,14 +29,13 @@ from estimators.dynamics import k_from_inertia
 from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import SOURCES, NavigationRun, run_navigation
-from estimators.prior import R_OMEGA_PROXY, SpinPrior, initialize_with_prior
+from estimators.prior import R_OMEGA_PROXY, BodyRatePrior, initialize_with_prior
+from estimators.state import DK, DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS
 from estimators.tuning import Tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
 from studies.sim.truth import Truth
 
-#: Error-state indices of ``k1, k2`` (considered, not estimated, in one-axis tumbles).
-K_STATES = (12, 13)
 
 
 def one_axis(w) -> bool:
@@ -47,9 +46,9 @@ def one_axis(w) -> bool:
 def initial_guess(tr: Truth, rng: np.random.Generator, inertia_range=(0.7, 1.3)) -> np.ndarray:
     """§6 of Renis et al.: ``q_TS = 1``, ``ω = r = v = 0``, ``k`` of ``J_T · a``, ``a_i ~ U(lo, hi)``."""
     a = rng.uniform(inertia_range[0], inertia_range[1], 3)
-    x0 = np.zeros(15)
-    x0[0] = 1.0
-    x0[13:15] = k_from_inertia(tr.J_T_diag * a)
+    x0 = np.zeros(N_STATE)
+    x0[Q_TS] = (1.0, 0.0, 0.0, 0.0)
+    x0[K] = k_from_inertia(tr.J_T_diag * a)
     return x0
 
 
@@ -60,7 +59,7 @@ def navigate(
     rng: np.random.Generator,
     *,
     P0=None,
-    prior: SpinPrior | None = None,
+    prior: BodyRatePrior | None = None,
     prior_use: str = "none",
     proxy_mode: str = "always",
     R_w: float = R_OMEGA_PROXY,
@@ -98,7 +97,7 @@ def navigate(
     if prior_use in ("init", "proxy"):
         x0, P0 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
         if P0_w_prior is not None:
-            P0[3:6, 3:6] = P0_w_prior * np.eye(3)
+            P0[DW_ST_T, DW_ST_T] = P0_w_prior * np.eye(3)
     run = run_navigation(
         filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
         pose_noise=pose_noise if filter_noise is None else filter_noise,
@@ -135,7 +134,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     from studies.engine.stats import proportion_interval, t_interval
 
     oa = one_axis(tr.scenario.w_T0_T_rad_s)
-    states = np.arange(12) if oa else np.arange(14)
+    states = np.arange(DK.start) if oa else np.arange(N_ERROR)
     dof = len(states)
     sel = (tr.t - tr.t[0]) >= settling_s
     if not sel.any():
@@ -145,7 +144,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
         rng = np.random.default_rng(first_seed + i)
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
                                        sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
-        x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(14), tuning.P_0))
+        x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(N_ERROR), tuning.P_0))
         run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
                              pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
                              consider=K_STATES if oa else ())

@@ -15,6 +15,7 @@ import pandas as pd
 
 from estimators.attitude import dcm_to_quat
 from estimators.dynamics import circular_orbit_state, inertia_from_k, integrate_absolute, lvlh_dcm, relative_state
+from estimators.state import R_I, V_I
 from studies.sim.scenarios import Scenario
 
 #: Column names of the relative state in tables (frame and unit in each name).
@@ -65,12 +66,12 @@ def initial_states(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     """
     sc = scenario
     rv_S = circular_orbit_state(sc.orbit_radius_m, sc.inclination_rad, sc.raan_rad, 0.0)
-    C_LI = lvlh_dcm(rv_S[:3], rv_S[3:])
+    C_LI = lvlh_dcm(rv_S[R_I], rv_S[V_I])
     n = sc.mean_motion_rad_s
     r_L = np.asarray(sc.r_TS0_L_m, dtype=float)
     v_L = np.asarray(sc.v_TS0_L_m_s, dtype=float) + np.cross([0.0, 0.0, n], r_L)
-    r_T = rv_S[:3] + C_LI.T @ r_L
-    v_T = rv_S[3:] + C_LI.T @ v_L
+    r_T = rv_S[R_I] + C_LI.T @ r_L
+    v_T = rv_S[V_I] + C_LI.T @ v_L
     q_IS = dcm_to_quat(C_LI.T)
     servicer = np.concatenate([rv_S, q_IS, [0.0, 0.0, n]])
     target = np.concatenate([r_T, v_T, np.asarray(sc.q_IT0, dtype=float), np.asarray(sc.w_T0_T_rad_s, dtype=float)])

@@ -5,6 +5,7 @@ import pytest
 
 from estimators import dynamics as dyn
 from estimators.attitude import attitude_angle, quat_to_dcm
+from estimators.state import Q_TS, R_ST_T, V_ST_T, W_B, W_ST_T
 from studies.sim.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
 from studies.sim.truth import initial_states, simulate_truth
 
@@ -46,9 +47,9 @@ def test_relative_model_reproduces_independent_absolute_integrations(name):
     """Eq. 21 of Renis et al. integrated alone (RK4, 0.01 s) = relative state of two absolute truths."""
     truth = simulate_truth(get_scenario(name), 300.0, 1.0)
     xs, _ = dyn.propagate_relative(truth.x[0], truth.servicer[0], truth.J_S_diag, 0.01, 30000, stride=100)
-    assert np.max(np.linalg.norm(xs[:, 7:10] - truth.x[:, 7:10], axis=1)) < 1e-3  # m
-    assert np.max(attitude_angle(xs[:, 0:4], truth.x[:, 0:4])) < 1e-6  # rad
-    assert np.max(np.linalg.norm(xs[:, 4:7] - truth.x[:, 4:7], axis=1)) < 1e-6  # rad/s
+    assert np.max(np.linalg.norm(xs[:, R_ST_T] - truth.x[:, R_ST_T], axis=1)) < 1e-3  # m
+    assert np.max(attitude_angle(xs[:, Q_TS], truth.x[:, Q_TS])) < 1e-6  # rad
+    assert np.max(np.linalg.norm(xs[:, W_ST_T] - truth.x[:, W_ST_T], axis=1)) < 1e-6  # rad/s
 
 
 def test_printed_eq15_sign_slip_would_fail_the_exactness_test():
@@ -58,11 +59,11 @@ def test_printed_eq15_sign_slip_would_fail_the_exactness_test():
     f = dyn.relative_rhs(x0, truth.servicer[0], truth.J_S_diag)
     # finite-difference derivative of the truth at t = 0
     fd = (simulate_truth(get_scenario("SC3"), 2e-3, 1e-3).x[1] - x0) / 1e-3
-    np.testing.assert_allclose(f[7:10], fd[7:10], atol=1e-4)
-    np.testing.assert_allclose(f[10:13], fd[10:13], atol=1e-4)
-    w_T = quat_to_dcm(x0[0:4]) @ truth.servicer[0, 10:13] - x0[4:7]
-    wrong = f[10:13] + 4.0 * np.cross(w_T, x0[10:13])  # −2ω×v → +2ω×v
-    assert np.max(np.abs(wrong - fd[10:13])) > 10 * np.max(np.abs(f[10:13] - fd[10:13]))
+    np.testing.assert_allclose(f[R_ST_T], fd[R_ST_T], atol=1e-4)
+    np.testing.assert_allclose(f[V_ST_T], fd[V_ST_T], atol=1e-4)
+    w_T = quat_to_dcm(x0[Q_TS]) @ truth.servicer[0, W_B] - x0[W_ST_T]
+    wrong = f[V_ST_T] + 4.0 * np.cross(w_T, x0[V_ST_T])  # −2ω×v → +2ω×v
+    assert np.max(np.abs(wrong - fd[V_ST_T])) > 10 * np.max(np.abs(f[V_ST_T] - fd[V_ST_T]))
 
 
 def test_relative_rhs_batch_matches_single():

@@ -10,6 +10,7 @@ from estimators.navigation import make_filter
 from estimators.process_model import RelativeProcessModel
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
+from estimators.state import Q_TS
 
 FILTERS = ["ekf", "ukf"]
 
@@ -31,10 +32,10 @@ def test_quaternion_stays_unit_after_every_step(truth, rng, name):
     norms = []
     for k in range(1, len(tr.t)):
         f.predict(tr.servicer[k - 1], 1.0)
-        norms.append(np.linalg.norm(f.x[0:4]))
+        norms.append(np.linalg.norm(f.x[Q_TS]))
         parts = [(att, m.q_TS[k - 1])] if k % 2 else [(att, m.q_TS[k - 1]), (pos, m.r_ST_T[k - 1])]
         f.update(parts, t=tr.t[k])
-        norms.append(np.linalg.norm(f.x[0:4]))
+        norms.append(np.linalg.norm(f.x[Q_TS]))
         assert np.all(np.isfinite(f.x)) and np.all(np.isfinite(f.P))
     assert np.max(np.abs(np.array(norms) - 1.0)) < 1e-12
     assert f.P.shape == (14, 14) and np.all(np.linalg.eigvalsh(f.P) > 0)
@@ -49,9 +50,9 @@ def test_nan_measurement_is_refused_and_state_kept(truth, rng, name):
     x, P = f.x.copy(), f.P.copy()
     att, pos = PoseNoise(model="isotropic").sources()
     with pytest.raises(ValueError, match="NaN or Inf"):
-        f.update([(att, tr.x[1, 0:4]), (pos, np.array([1.0, np.nan, 2.0]))], t=1.0)
+        f.update([(att, tr.x[1, Q_TS]), (pos, np.array([1.0, np.nan, 2.0]))], t=1.0)
     with pytest.raises(ValueError, match="unit quaternion"):
-        f.update([(att, 2.0 * tr.x[1, 0:4])], t=1.0)
+        f.update([(att, 2.0 * tr.x[1, Q_TS])], t=1.0)
     np.testing.assert_array_equal(f.x, x)
     np.testing.assert_array_equal(f.P, P)
 

@@ -21,6 +21,7 @@ from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.tuning import get_tuning
+from estimators.state import K_STATES
 from perception.simulated_pose import simulate_pose_measurements
 
 SIGMA_0 = np.repeat([0.1, 0.005, 0.5, 0.02, 0.1], [3, 3, 3, 3, 2]) * np.sqrt(0.1)
@@ -48,7 +49,7 @@ def _runs(truth, name, n_runs, model, outliers=False, seed=77):
             q[bad[:, 0]] = quat_multiply(rotvec_to_quat(10 * noise.sigma_q_rad / np.sqrt(3) * u[bad[:, 0]]), q[bad[:, 0]])
             r[bad[:, 1]] += 10 * noise.sigma_r_m / np.sqrt(3) * u[bad[:, 1]]
         run = run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, m.t, q, r, x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun,
-                             pose_noise=noise, gate_confidence=CONF, consider=(12, 13))
+                             pose_noise=noise, gate_confidence=CONF, consider=K_STATES)
         below += [d for d in run.decisions if not d.accepted and d.e2 < d.upper]
         for j, s in enumerate(("attitude", "position")):
             acc = run.accepted[s][1:]

@@ -16,6 +16,7 @@ from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
+from estimators.state import K_STATES, Q_TS, R_ST_T
 
 #: noise far from the paper's 0.12 rad / 0.37 m, so a filter still using those would fail by a factor 16 and 10 in NIS
 NOISE = PoseNoise(sigma_q_rad=0.03, sigma_r_m=1.2, model="gaussian")
@@ -30,8 +31,8 @@ def test_simulated_noise_has_the_covariance_R(truth, model):
     for seed in range(150):
         m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(seed), tau_s=1.0, sigma_q_rad=noise.sigma_q_rad,
                                        sigma_r_m=noise.sigma_r_m, noise=noise.model)
-        dq.append(quat_to_rotvec(quat_multiply(quat_conjugate(tr.x[1:, 0:4]), m.q_TS)))
-        dr.append(m.r_ST_T - tr.x[1:, 7:10])
+        dq.append(quat_to_rotvec(quat_multiply(quat_conjugate(tr.x[1:, Q_TS]), m.q_TS)))
+        dr.append(m.r_ST_T - tr.x[1:, R_ST_T])
     np.testing.assert_allclose(np.cov(np.concatenate(dq).T), noise.R_attitude, rtol=0.05, atol=0.05 * noise.R_attitude[0, 0])
     np.testing.assert_allclose(np.cov(np.concatenate(dr).T), noise.R_position, rtol=0.05, atol=0.05 * noise.R_position[0, 0])
 
@@ -51,7 +52,7 @@ def test_filter_nis_matches_the_noise_it_was_given(truth, name):
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=NOISE.sigma_q_rad, sigma_r_m=NOISE.sigma_r_m, noise=NOISE.model)
         x0 = boxplus(tr.x[0], rng.normal(size=14) * sigma_0)
         run = run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, P0=np.diag(sigma_0**2),
-                             tuning=get_tuning("consistent"), pose_noise=NOISE, gate_confidence=None, consider=(12, 13))
+                             tuning=get_tuning("consistent"), pose_noise=NOISE, gate_confidence=None, consider=K_STATES)
         assert run.pose_noise == NOISE
         for s in nis:
             nis[s].append(run.nis[s][1:])

@@ -7,93 +7,114 @@ from estimators.attitude import quat_to_dcm
 from estimators.error_state import boxplus
 from estimators.measurement import TargetRateMeasurement
 from estimators.navigation import run_navigation
-from estimators.prior import SpinPrior, initialize_with_prior, prior_from_rate, rate_proxy, tuning_for_prior
+from estimators.prior import BodyRatePrior, initialize_with_prior, rate_proxy, tuning_for_prior
 from estimators.measurement import PoseNoise
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
+from estimators.state import DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS, W_B, W_ST_T
 from studies.sim.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
 from studies.sim.scenarios import get_scenario
 
 
 def test_prior_needs_a_rate_and_a_positive_sigma():
     with pytest.raises(ValueError, match="no rate"):
-        SpinPrior(None, [0.01, 0.01, 0.01])
+        BodyRatePrior(None, [0.01, 0.01, 0.01])
     with pytest.raises(ValueError, match="three finite numbers"):
-        SpinPrior([0.0, np.nan, 0.05], 0.01)
+        BodyRatePrior([0.0, np.nan, 0.05], 0.01)
     with pytest.raises(ValueError, match="sigma_rad_s must be positive"):
-        SpinPrior([0.0, 0.0, 0.05], 0.0)
+        BodyRatePrior([0.0, 0.0, 0.05], 0.0)
     with pytest.raises(ValueError, match="positive fraction"):
-        SpinPrior.from_truth([0.0, 0.0, 0.05], -0.05)
-    p = SpinPrior.from_truth([0.0, 0.0, 0.05], 0.05)
+        BodyRatePrior.from_truth([0.0, 0.0, 0.05], -0.05)
+    p = BodyRatePrior.from_truth([0.0, 0.0, 0.05], 0.05)
     np.testing.assert_allclose(p.w_T_T_rad_s, [0.0, 0.0, 0.0525])
     np.testing.assert_allclose(p.sigma_rad_s, 0.0025)
 
 
-def test_prior_from_a_light_curve_rate():
-    p = prior_from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 2.0))
+def test_prior_from_a_rate_and_sigma():
+    p = BodyRatePrior.from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 2.0))
     np.testing.assert_allclose(p.w_T_T_rad_s, [0.0, 0.0, 0.05])
     np.testing.assert_allclose(p.sigma_rad_s, 0.002)
     with pytest.raises(ValueError, match="no rate"):
-        prior_from_rate(None, None)
+        BodyRatePrior.from_rate(None, None)
     with pytest.raises(ValueError, match="sigma_rad_s must be positive"):
-        prior_from_rate(0.05, None)
+        BodyRatePrior.from_rate(0.05, None)
     with pytest.raises(ValueError, match="spin axis"):
-        prior_from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 0.0))
+        BodyRatePrior.from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 0.0))
+
+
+def test_light_curve_prior_makes_the_body_rate_prior(rng):
+    """The light curve's rate prior (lightcurves.SpinPrior) → ω_T = rate · â, 1-σ σ_rate per axis; no period, no prior."""
+    from lightcurves import extract_spin_prior
+
+    t = np.arange(0.0, 1800.0, 2.0)
+    rate = 0.05  # rad/s: a two-maxima light curve at twice the rotation frequency, 14 rotations
+    mag = 0.3 * np.cos(2.0 * rate * t) + 0.1 * np.cos(rate * t + 0.4) + rng.normal(0.0, 0.02, t.size)
+    lc = extract_spin_prior(t, mag, np.full(t.size, 0.02))
+    assert lc.significant and lc.rate_rad_s == pytest.approx(rate, rel=1e-3)
+    axis = np.array([1.0, 0.0, 2.0])
+    p = lc.body_rate_prior(axis, source="test curve")
+    np.testing.assert_allclose(p.w_T_T_rad_s, lc.rate_rad_s * axis / np.linalg.norm(axis), rtol=1e-15)
+    np.testing.assert_array_equal(p.sigma_rad_s, np.full(3, lc.rate_sigma_rad_s))
+    assert p.source == "test curve" and tuning_for_prior(p) == "sc3"  # slow, two axes
+    noise = extract_spin_prior(t, rng.normal(0.0, 0.02, t.size), np.full(t.size, 0.02))
+    assert not noise.significant
+    with pytest.raises(ValueError, match="no rate"):
+        noise.body_rate_prior()
 
 
 @pytest.mark.parametrize("name,expected", [("SC1", "sc1"), ("SC2", "sc2"), ("SC3", "sc3"), ("SC4", "sc4")])
 def test_tuning_by_name_from_the_prior(name, expected):
-    prior = SpinPrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
+    prior = BodyRatePrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
     assert tuning_for_prior(prior) == expected
     get_tuning(expected)  # every name it returns exists
 
 
 def test_initialisation_from_the_prior(truth):
     tr = truth("SC3", 5.0)
-    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
     x0 = tr.x[0].copy()
-    x0[4:7] = 0.0
+    x0[W_ST_T] = 0.0
     P0 = get_tuning("sc3").P_0
     x1, P1 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
     # with the true attitude, ω_ST_0 is the truth's up to the prior's 5 % error (eq. 1)
-    np.testing.assert_allclose(x1[4:7] - tr.x[0, 4:7], -0.05 * tr.target[0, 10:13], atol=1e-12)
-    np.testing.assert_allclose(P1[3:6, 3:6], np.diag(prior.sigma_rad_s**2))
-    np.testing.assert_array_equal(np.delete(np.delete(P1, np.s_[3:6], 0), np.s_[3:6], 1), np.delete(np.delete(P0, np.s_[3:6], 0), np.s_[3:6], 1))
+    np.testing.assert_allclose(x1[W_ST_T] - tr.x[0, W_ST_T], -0.05 * tr.target[0, W_B], atol=1e-12)
+    np.testing.assert_allclose(P1[DW_ST_T, DW_ST_T], np.diag(prior.sigma_rad_s**2))
+    np.testing.assert_array_equal(np.delete(np.delete(P1, DW_ST_T, 0), DW_ST_T, 1), np.delete(np.delete(P0, DW_ST_T, 0), DW_ST_T, 1))
 
 
 def test_proxy_measures_the_target_rate(truth, rng):
     tr = truth("SC3", 20.0)
-    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
     src, z = rate_proxy(prior, tr.servicer[7])
     assert isinstance(src, TargetRateMeasurement)
     np.testing.assert_allclose(src.R, 1e-3 * np.eye(3))
     np.testing.assert_array_equal(z, prior.w_T_T_rad_s)
     # h(x_true) is the target's own rate in its body frame
-    np.testing.assert_allclose(src.h_chart(tr.x[7], tr.x[7]), tr.target[7, 10:13], atol=1e-12)
+    np.testing.assert_allclose(src.h_chart(tr.x[7], tr.x[7]), tr.target[7, W_B], atol=1e-12)
     # H against central differences on the error state
     x = tr.x[7]
     H = src.jacobian(x)
-    Hn = np.empty((3, 14))
-    for i in range(14):
-        e = np.zeros(14)
+    Hn = np.empty((3, N_ERROR))
+    for i in range(N_ERROR):
+        e = np.zeros(N_ERROR)
         e[i] = 1e-6
         Hn[:, i] = (src.h_chart(boxplus(x, e), x) - src.h_chart(boxplus(x, -e), x)) / 2e-6
     np.testing.assert_allclose(H, Hn, atol=1e-9)
-    assert np.allclose(quat_to_dcm(x[0:4]) @ tr.servicer[7, 10:13] - x[4:7], tr.target[7, 10:13])
+    assert np.allclose(quat_to_dcm(x[Q_TS]) @ tr.servicer[7, W_B] - x[W_ST_T], tr.target[7, W_B])
 
 
 def _blackout(truth, name, proxy, seed=1, reacquire_window=5):
     """SC1, 240 s at τ_s = 1 s, fault 60–180 s on both parts, prior (+5 %) as initial condition."""
     tr = truth("SC1", 240.0)
     m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(seed), tau_s=1.0, faults=[(60.0, 120.0)])
-    prior = SpinPrior.from_truth(tr.target[0, 10:13], 0.05)
+    prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
     tun = get_tuning("sc1")
-    x0 = np.zeros(15)
-    x0[0] = 1.0
-    x0[13:] = [1.466 * 1.1, -1.439 * 0.9]
+    x0 = np.zeros(N_STATE)
+    x0[Q_TS] = (1.0, 0.0, 0.0, 0.0)
+    x0[K] = [1.466 * 1.1, -1.439 * 0.9]
     x0, P0 = initialize_with_prior(x0, tun.P_0, prior, tr.servicer[0])
     run = run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, P0=P0, tuning=tun, pose_noise=PoseNoise(model="isotropic"),
-                         gate_confidence=0.99, gate_start_s=10.0, prior=prior, proxy=proxy, consider=(12, 13),
+                         gate_confidence=0.99, gate_start_s=10.0, prior=prior, proxy=proxy, consider=K_STATES,
                          reacquire_window=reacquire_window)
     e = state_errors(run.x, tr.x)
     fault = (tr.t >= 60.0) & (tr.t < 180.0)

@@ -7,6 +7,7 @@ from estimators.attitude import random_quaternion
 from estimators.dynamics import circular_orbit_state, relative_rhs
 from estimators.error_state import boxminus, boxplus
 from estimators.process_model import RelativeProcessModel, relative_jacobian
+from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T
 
 
 def _state(rng):
@@ -52,8 +53,8 @@ def test_substeps_make_the_model_match_the_truth(truth):
     for max_step in (np.inf, 0.25):
         m = RelativeProcessModel(tr.J_S_diag, max_step_s=max_step)
         e = np.array([boxminus(tr.x[k], m.propagate(tr.x[k - 1], tr.servicer[k - 1], 1.0)) for k in range(1, len(tr.t))])
-        errs[max_step] = np.abs(e[:, 6:9]).max()
-        assert np.abs(e[:, 0:3]).max() < 1e-9  # attitude (rad)
+        errs[max_step] = np.abs(e[:, DR_ST_T]).max()
+        assert np.abs(e[:, DTHETA]).max() < 1e-9  # attitude (rad)
     assert errs[np.inf] > 1e-5
     assert errs[0.25] < 1e-6
 
@@ -70,8 +71,8 @@ def test_tuning_settling_phase():
 
     t = get_tuning("settled")
     # after the settling phase, process noise on the rate and k only (estimators.tuning)
-    assert t.settling_s > 0 and np.all(t.q_rate[[0, 1, 2, 6, 7, 8, 9, 10, 11]] == 0) and np.all(t.q_rate[3:6] > 0)
-    assert np.all(t.q_rate[12:14] > 0)
+    assert t.settling_s > 0 and np.all(t.q_rate[np.r_[DTHETA, DR_ST_T, DV_ST_T]] == 0) and np.all(t.q_rate[DW_ST_T] > 0)
+    assert np.all(t.q_rate[DK] > 0)
     np.testing.assert_allclose(t.Q_d(2.0), np.diag(2.0 * t.q_rate))
     np.testing.assert_allclose(np.diag(t.Q_d(2.0, settling=True)), 2.0 * (t.q_rate + t.settling_q_rate))
     assert np.all(get_tuning("general").settling_q_rate == 0) and get_tuning("general").settling_s == 0

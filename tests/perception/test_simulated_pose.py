@@ -5,6 +5,7 @@ import pytest
 
 from estimators.attitude import attitude_angle, quat_conjugate, quat_multiply, quat_to_rotvec
 from perception.simulated_pose import simulate_pose_measurements
+from estimators.state import Q_TS, R_ST_T
 
 
 def _truth(n=4001, dt=0.5, r0=50.0):
@@ -24,12 +25,12 @@ def test_isotropic_noise_has_the_papers_statistics():
     assert len(m.t) == len(t) - 1 and m.t[0] == 0.5
     i = np.rint(m.t / 0.5).astype(int)
     # eq. 33: q̃ = q ⊗ δq_n, with |α_n| half-normal of σ = 0.12 rad, axis uniform
-    dq = quat_multiply(quat_conjugate(x[i, 0:4]), m.q_TS)
-    ang = attitude_angle(x[i, 0:4], m.q_TS)
+    dq = quat_multiply(quat_conjugate(x[i, Q_TS]), m.q_TS)
+    ang = attitude_angle(x[i, Q_TS], m.q_TS)
     assert np.mean(ang) == pytest.approx(0.12 * np.sqrt(2 / np.pi), rel=0.05)
     rv = quat_to_rotvec(dq)
     np.testing.assert_allclose(np.cov(rv.T), 0.12**2 / 3 * np.eye(3), atol=0.0008)
-    dr = m.r_ST_T - x[i, 7:10]
+    dr = m.r_ST_T - x[i, R_ST_T]
     assert np.sqrt(np.mean(np.sum(dr**2, axis=1))) == pytest.approx(0.37, rel=0.05)
     np.testing.assert_allclose(np.cov(dr.T), 0.37**2 / 3 * np.eye(3), atol=0.01)
     np.testing.assert_allclose(np.linalg.norm(m.q_TS, axis=1), 1.0, atol=1e-12)
@@ -39,7 +40,7 @@ def test_gaussian_noise_has_the_same_covariance_and_chi_square_norm():
     t, x = _truth()
     m = simulate_pose_measurements(t, x, np.random.default_rng(4), tau_s=0.5, noise="gaussian")
     i = np.rint(m.t / 0.5).astype(int)
-    dr = m.r_ST_T - x[i, 7:10]
+    dr = m.r_ST_T - x[i, R_ST_T]
     np.testing.assert_allclose(np.cov(dr.T), 0.37**2 / 3 * np.eye(3), atol=0.01)
     e2 = np.sum(dr**2, axis=1) / (0.37**2 / 3)
     assert np.mean(e2 > 9.348) == pytest.approx(0.025, abs=0.01)  # χ²₃ upper 2.5 % point
@@ -53,7 +54,7 @@ def test_faults_range_scaling_rate_and_seed():
     np.testing.assert_array_equal(a.q_TS, b.q_TS)
     np.testing.assert_allclose(np.diff(a.t), 1.0)
     assert a.faulty.sum() == 30 and np.all(a.faulty == ((a.t >= 20) & (a.t < 50)))
-    np.testing.assert_allclose(a.sigma_r_m[~a.faulty], 0.37 * np.linalg.norm(x[np.rint(a.t / 0.5).astype(int)][~a.faulty, 7:10], axis=1) / 50.0)
+    np.testing.assert_allclose(a.sigma_r_m[~a.faulty], 0.37 * np.linalg.norm(x[np.rint(a.t / 0.5).astype(int)][~a.faulty, R_ST_T], axis=1) / 50.0)
     assert np.all(a.sigma_r_m[a.faulty] == 20.0)
     with pytest.raises(ValueError, match="not on the truth time grid"):
         simulate_pose_measurements(t, x, np.random.default_rng(5), tau_s=0.3)

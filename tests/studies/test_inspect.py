@@ -4,6 +4,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+from estimators.state import R_ST_T, W_ST_T
 
 from studies.cli import main
 from studies.recording.reader import TIME_COLUMN, export_series, summarize_recording
@@ -33,8 +34,8 @@ def test_export_returns_one_row_per_step_with_the_run_data(quick_truth, tmp_path
     rng = np.random.default_rng(int(row["seed"]))
     sc = perturbed_scenario(row["scenario"], rng, bool(row["random_attitude"]), float(row["position_jitter_m"]))
     truth = simulate_truth(sc, row["duration_s"], row["dt_s"])
-    np.testing.assert_allclose(df["/truth/range_m"], np.linalg.norm(truth.x[:, 7:10], axis=1), rtol=1e-12)
-    np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, 4:7], rtol=1e-12)
+    np.testing.assert_allclose(df["/truth/range_m"], np.linalg.norm(truth.x[:, R_ST_T], axis=1), rtol=1e-12)
+    np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, W_ST_T], rtol=1e-12)
     assert df["/truth/range_m"].mean() == pytest.approx(row["range_mean_m"], rel=1e-12)
     # the RK4 errors in the recording are the metrics of the run
     err = df[[f"/estimate/rk4/error/r_ST_T/{a}/value" for a in "xyz"]].to_numpy()

@@ -6,6 +6,7 @@ from scipy.stats import chi2
 
 from estimators.attitude import rotvec_to_quat
 from estimators.error_state import boxplus
+from estimators.state import Q_TS, R_ST_T
 from studies.sim import metrics as M
 
 
@@ -23,8 +24,8 @@ def test_state_and_filter_magnitudes():
     x = np.zeros((3, 15))
     x[:, 0] = 1.0
     y = x.copy()
-    y[:, 0:4] = rotvec_to_quat(np.array([0.0, 0.0, 0.03]))
-    y[:, 7:10] = [3.0, 4.0, 0.0]
+    y[:, Q_TS] = rotvec_to_quat(np.array([0.0, 0.0, 0.03]))
+    y[:, R_ST_T] = [3.0, 4.0, 0.0]
     e = M.state_errors(x, y)
     np.testing.assert_allclose(e["q"], 0.03)
     np.testing.assert_allclose(e["r"], 5.0)
@@ -44,7 +45,7 @@ def test_nees_of_drawn_errors_is_chi_square_and_band_holds():
     P = A @ A.T + 14 * np.eye(14)
     L = np.linalg.cholesky(P)
     x_est = np.tile(np.r_[1.0, np.zeros(14)], (30, 400, 1))
-    x_est[..., 0:4] = rotvec_to_quat(rng.normal(size=(30, 400, 3)) * 0.3)
+    x_est[..., Q_TS] = rotvec_to_quat(rng.normal(size=(30, 400, 3)) * 0.3)
     dx = rng.normal(size=(30, 400, 14)) @ L.T * 1e-2
     x_true = boxplus(x_est, dx)
     e = M.nees(x_est, np.broadcast_to(P * 1e-4, (30, 400, 14, 14)), x_true)

@@ -7,6 +7,7 @@ the truth rates and range; a stereo frame's images and clouds.
 from types import SimpleNamespace
 
 import numpy as np
+from estimators.state import R_ST_T, W_ST_T
 
 from lightcurves.prior import extract_spin_prior
 from studies.recording.reader import _open_store, export_series
@@ -53,8 +54,8 @@ def test_truth_recording_carries_its_layout_and_the_scenario_rates(tmp_path):
     _, queries = blueprint_views(path)
     assert {"/truth/w_ST_T/**", "/truth/w_T_T/**", "/truth/range_m/**", "/truth/**"} <= queries
     df, _ = export_series(path, ["/truth/**"])
-    np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, 4:7], rtol=1e-12)
-    np.testing.assert_allclose(df["/truth/range_m"], np.linalg.norm(truth.x[:, 7:10], axis=1), rtol=1e-12)
+    np.testing.assert_allclose(df[[f"/truth/w_ST_T/{a}" for a in "xyz"]], truth.x[:, W_ST_T], rtol=1e-12)
+    np.testing.assert_allclose(df["/truth/range_m"], np.linalg.norm(truth.x[:, R_ST_T], axis=1), rtol=1e-12)
 
 
 def test_frame_recording_carries_cameras_and_clouds(tmp_path):

@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from estimators.state import K_STATES, R_ST_T
 
 from studies.cli import main
 from studies.sim.scenarios import get_scenario
@@ -119,10 +120,10 @@ def test_navigate_draws_and_filters_with_one_pose_noise():
 
     tr = simulate_truth(get_scenario("SC1"), 400.0, 1.0)
     noise = PoseNoise(0.03, 1.2, "gaussian")
-    run, (_, _, r, _) = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, consider=(12, 13))
+    run, (_, _, r, _) = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, consider=K_STATES)
     assert run.pose_noise == noise
     # 1200 position-error components of sd 1.2/sqrt(3): their variance within 15 % of R (0.48 m²; ~4 % sd at this size)
-    assert np.var(r - tr.x[1:, 7:10]) == pytest.approx(noise.R_position[0, 0], rel=0.15)
+    assert np.var(r - tr.x[1:, R_ST_T]) == pytest.approx(noise.R_position[0, 0], rel=0.15)
     wrong = PoseNoise()
-    run, _ = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, filter_noise=wrong, consider=(12, 13))
+    run, _ = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, filter_noise=wrong, consider=K_STATES)
     assert run.pose_noise == wrong
