@@ -41,7 +41,7 @@ import pandas as pd
 
 from estimators.navigation import FILTERS
 from lightcurves.targets import TARGETS
-from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate, plot_spectrum, record_lightcurve, record_run, render_prior
+from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate_arm, plot_spectrum, record_lightcurve, record_run, render_prior
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
@@ -136,8 +136,8 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     for f in p["filters"]:
         for arm in arms:
             try:
-                run, meas, _ = navigate(truth, f, arm, rendered.spin, measurement_seed, faults=faults,
-                                        gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"])
+                run, meas, _ = navigate_arm(truth, f, arm, rendered.spin, measurement_seed, faults=faults,
+                                            gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"])
             except ValueError as e:  # the filter broke down numerically (P not positive definite, NaN): a result, counted
                 row[f"{f}_{arm}_failed"] = str(e)
                 continue

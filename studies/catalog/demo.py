@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from studies.sim.chain import (ARM_LABELS, flat_metrics, navigate, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
+from studies.sim.chain import (ARM_LABELS, flat_metrics, navigate_arm, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
                            record_lightcurve, record_run, render_prior)
 from lightcurves.io import to_timeseries
 from studies.engine.io import atomic_path, output_folder, write_json, write_table, write_text
@@ -129,7 +129,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     jobs = [(f, suffix, arm) for f in config.filters for suffix, arm in DEMO_ARMS.items()]
     for f, suffix, arm in tqdm(jobs, desc=f"filters on {sc.name}", unit="run", leave=False, disable=not progress):
         name = f"{f}{suffix}"
-        run, meas, tuning = navigate(truth, f, arm, rendered.spin, measurement_seed)
+        run, meas, tuning = navigate_arm(truth, f, arm, rendered.spin, measurement_seed)
         runs[name] = (run, meas)
         m = flat_metrics(truth, run, "m")
         rows.append({"run": name, "filter": f.upper(), "prior": ARM_LABELS[arm], "tuning": tuning,

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
-from estimators.state import W_B, W_ST_T
+from estimators.state import K_STATES, W_B, W_ST_T
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, draw_prior, median_interval, metric_tables, paired_error_figure,
@@ -34,7 +34,7 @@ from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.recording.navigation import record_navigation
-from studies.sim.navigation import K_STATES, error_series, navigate, one_axis, run_metrics
+from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec
 from studies.engine.tables import Table
@@ -78,12 +78,13 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
     w_true = tr.target[0, W_B]
     prior = draw_prior(w_true, p["prior_rate_error"], p["prior_error_direction"], rng)  # drawn in both arms (paired streams)
-    run, meas = navigate(
-        tr, p["filter"], get_tuning(p["tuning"]), rng, prior=prior, prior_use="init" if p["prior"] else "none",
+    setup = NavigationSetup(
+        p["filter"], get_tuning(p["tuning"]), prior=prior, prior_use="init" if p["prior"] else "none",
         P0_w_prior=p["P0_w_prior"], pose_noise=pose_noise(p),
         gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
         consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
     )
+    run, meas = navigate(tr, setup, rng)
     if p["record"]:
         errors = error_series(tr, run)
         with atomic_path(workdir / "errors.parquet") as tmp:

@@ -35,14 +35,14 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
-from estimators.state import ERROR_GROUPS
+from estimators.state import ERROR_GROUPS, K_STATES
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.recording.navigation import record_navigation
-from studies.sim.navigation import K_STATES, error_series, navigate, one_axis, run_metrics
+from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec, make_specs
 from studies.engine.tables import Table
@@ -129,12 +129,11 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    setup = NavigationSetup(p["filter"], grid_tuning(p), pose_noise=pose_noise(p), gate_confidence=p["gate_confidence"],
+                            gate_start_s=p["gate_start_s"], consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (),
+                            inertia_range=tuple(p["inertia_guess_range"]))
     try:
-        run, meas = navigate(
-            tr, p["filter"], grid_tuning(p), rng, pose_noise=pose_noise(p),
-            gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
-            consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
-        )
+        run, meas = navigate(tr, setup, rng)
     except ValueError as e:  # the filter broke down on this Q_d (P not positive definite, NaN/Inf): a result of the grid
         return {"n_steps": len(tr.t), "diverged": True, "failure": str(e)}
     th = thresholds(p)

@@ -34,18 +34,17 @@ import typer
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
 from estimators.prior import PROXY_MODES, BodyRatePrior, tuning_for_prior
-from estimators.state import W_B
-from estimators.tuning import TUNINGS, Tuning, get_tuning
+from estimators.state import DK, K_STATES, N_ERROR, W_B
+from estimators.tuning import TUNINGS, get_tuning
 from perception.simulated_pose import parse_faults
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
 from studies.sim.metrics import GROUPS, SETTLING_S, UNITS, chi_square_band, evaluate, fraction_in_band, nees
-from studies.sim.navigation import K_STATES, navigate, one_axis
+from studies.sim.navigation import PRIOR_USES, NavigationSetup, navigate, one_axis
 from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import RELATIVE_COLUMNS, Truth, simulate_truth
 
-PRIOR_USES = ("none", "init", "proxy")
 ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
 MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
 
@@ -190,22 +189,11 @@ def run(
 
 @dataclass(frozen=True)
 class RunSetup:
-    """What ``lcnav run`` runs, validated: the truth, the filter and its tuning, the prior, the measurements' noise and faults, the gates."""
+    """What ``lcnav run`` runs, validated: the truth, one run's navigation set-up, the measurements, the Monte-Carlo runs."""
 
     truth: Truth
-    filter: str
-    tuning: Tuning
-    P0: np.ndarray
-    spin: BodyRatePrior | None
-    prior_use: str
-    proxy_mode: str
-    faults: tuple
-    pose_noise: PoseNoise
-    gate_confidence: float | None
-    gate_start_s: float
-    consider: tuple
+    nav: NavigationSetup  #: the filter and its tuning, the prior, the measurements' noise and faults, the gates
     meas: object  #: measurements read from --measurements, or None to simulate them
-    reacquire_window: int | None
     runs: int
     seed: int
     config: dict  #: the options as metrics.json records them
@@ -267,8 +255,9 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
               "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
               "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
               "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()}
-    return RunSetup(tr, filter_, tun, tun.P_0 if P0 is None else P0, spin, prior, proxy_mode, faults, pose_noise, gate_confidence or None,
-                    gate_start, consider, meas, reacquire_window or None, runs, seed, config)
+    nav = NavigationSetup(filter_, tun, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, pose_noise=pose_noise,
+                          gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, reacquire_window=reacquire_window or None)
+    return RunSetup(tr, nav, meas, runs, seed, config)
 
 
 def _monte_carlo(setup: RunSetup) -> list:
@@ -277,10 +266,7 @@ def _monte_carlo(setup: RunSetup) -> list:
     tr = setup.truth
     for i in range(setup.runs):
         rng = np.random.default_rng(setup.seed + i)
-        run_i, meas_i = navigate(tr, setup.filter, setup.tuning, rng, P0=setup.P0, prior=setup.spin, prior_use=setup.prior_use,
-                                 proxy_mode=setup.proxy_mode, faults=setup.faults, pose_noise=setup.pose_noise,
-                                 gate_confidence=setup.gate_confidence, gate_start_s=setup.gate_start_s, consider=setup.consider,
-                                 meas=setup.meas, reacquire_window=setup.reacquire_window)
+        run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
         results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
     return results
 
@@ -293,14 +279,14 @@ def _mean_over_runs(results, g: str, key: str):
 def _run_metrics(setup: RunSetup, results: list) -> dict:
     """metrics.json: the first run's §6 metrics, their means over the runs, NEES/NIS in band from :data:`SETTLING_S`, gate rates."""
     tr = setup.truth
-    states = np.arange(12) if setup.consider else np.arange(14)
+    states = np.arange(DK.start) if setup.nav.consider else np.arange(N_ERROR)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
     sel = (tr.t - tr.t[0]) >= SETTLING_S
     lo, hi = chi_square_band(len(states), setup.runs, 0.95)
     avg = E[:, sel].mean(axis=0)
     first, _, m0 = results[0]
     return {
-        "filter": setup.filter,
+        "filter": setup.nav.filter_name,
         "scenario": tr.scenario.name,
         "components": _metrics_dict(m0["state"]),
         "nees_fraction_in_95": _num(float(np.mean((avg >= lo) & (avg <= hi))) if avg.size else float("nan")),

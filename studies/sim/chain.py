@@ -14,7 +14,7 @@ The chain of Renis et al. §5–6 end to end:
    ``ω_T0/|ω_T0|`` (for a two-axis tumble such as SC3 this is the assumption
    that the axis is known from elsewhere, e.g. resolved imaging; the light
    curve itself cannot tell it, nor the sense of rotation);
-3. :func:`navigate` runs one filter in one *arm* — ``none`` (the general
+3. :func:`navigate_arm` runs one filter in one *arm* — ``none`` (the general
    tuning, ``ω̂_0 = 0``), ``tuning`` (the scenario-specific tuning the prior
    points to, :func:`estimators.prior.tuning_for_prior`), ``init`` (that
    tuning plus the prior as initial condition, §6.2) or ``proxy`` (that
@@ -135,8 +135,8 @@ def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:
     return tuning_for_prior(spin)
 
 
-def navigate(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior | None, measurement_seed: int, *,
-             faults=(), gate_confidence: float = 0.99, gate_start_s: float = 10.0):
+def navigate_arm(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior | None, measurement_seed: int, *,
+                 faults=(), gate_confidence: float = 0.99, gate_start_s: float = 10.0):
     """One filter run in one arm: ``(NavigationRun, measurements, tuning name)``.
 
     The measurements and the initial inertia guess are drawn from
@@ -145,16 +145,15 @@ def navigate(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior | Non
     consider ``k1, k2`` instead of estimating them (as ``lcnav run``).
     """
     from estimators.measurement import PoseNoise
-    from studies.sim.navigation import navigate as navigate_once
-    from studies.sim.navigation import K_STATES, one_axis
+    from estimators.state import K_STATES
+    from studies.sim.navigation import NavigationSetup, navigate, one_axis
 
     tuning_name = arm_tuning(arm, spin)
-    tun = get_tuning(tuning_name)
     consider = K_STATES if one_axis(truth.scenario.w_T0_T_rad_s) else ()
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
-    run, meas = navigate_once(truth, filter_name, tun, np.random.default_rng(measurement_seed), prior=spin, prior_use=use,
-                              proxy_mode="always", faults=faults, pose_noise=PoseNoise(model="isotropic"), gate_confidence=gate_confidence,
-                              gate_start_s=gate_start_s, consider=consider)
+    setup = NavigationSetup(filter_name, get_tuning(tuning_name), prior=spin, prior_use=use, proxy_mode="always", faults=faults,
+                            pose_noise=PoseNoise(model="isotropic"), gate_confidence=gate_confidence, gate_start_s=gate_start_s, consider=consider)
+    run, meas = navigate(truth, setup, np.random.default_rng(measurement_seed))
     return run, meas, tuning_name
 
 

@@ -6,9 +6,11 @@ Shared by ``lcnav run`` (:mod:`studies.cli.run`) and the studies of Renis et al.
 
 * :func:`initial_guess` — §6's initial estimate: ``q_TS = 1``, ``ω = r = v = 0``,
   ``k`` from the true inertia scaled by ``U(lo, hi)`` per axis;
+* :class:`NavigationSetup` — one run's filter, tuning, prior and its use,
+  noise, faults, gates, re-acquisition and considered states, validated;
 * :func:`navigate` — simulated pose measurements (eqs 33–34, with fault
-  windows), the initial guess, optionally the prior as initial condition
-  (§6.2) and/or as proxy measurement (§6.3), then the filter;
+  windows, :func:`simulate_measurements`), the initial guess, optionally the
+  prior as initial condition (§6.2) and/or as proxy measurement (§6.3), then the filter;
 * :func:`run_metrics` — §6's convergence time and steady-state RMSE per
   group, state and filter based, as a flat dict for a study's runs table;
 * :func:`consistency_check` — Monte-Carlo NEES/NIS and gate rates of one
@@ -22,17 +24,19 @@ Its recording is :func:`studies.recording.navigation.record_navigation`; what th
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
 
 from estimators.dynamics import k_from_inertia
 from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
-from estimators.navigation import SOURCES, NavigationRun, run_navigation
-from estimators.prior import R_OMEGA_PROXY, BodyRatePrior, initialize_with_prior
+from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
+from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, initialize_with_prior
 from estimators.state import DK, DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS
 from estimators.tuning import Tuning
-from perception.simulated_pose import simulate_pose_measurements
+from perception.simulated_pose import parse_faults, simulate_pose_measurements
 from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
 from studies.sim.truth import Truth
 
@@ -52,58 +56,140 @@ def initial_guess(tr: Truth, rng: np.random.Generator, inertia_range=(0.7, 1.3))
     return x0
 
 
-def navigate(
-    tr: Truth,
-    filter_name: str,
-    tuning: Tuning,
-    rng: np.random.Generator,
-    *,
-    P0=None,
-    prior: BodyRatePrior | None = None,
-    prior_use: str = "none",
-    proxy_mode: str = "always",
-    R_w: float = R_OMEGA_PROXY,
-    pose_noise: PoseNoise = PoseNoise(),
-    filter_noise: PoseNoise | None = None,
-    faults=(),
-    fault_sigma_q_rad: float = 1.5,
-    fault_sigma_r_m: float = 20.0,
-    gate_confidence: float | None = 0.99,
-    gate_start_s: float = 10.0,
-    reacquire_window: int | None = 5,
-    consider=(),
-    inertia_range=(0.7, 1.3),
-    meas=None,
-    P0_w_prior: float | None = None,
-):
+#: How a run uses the spin prior: not at all, as initial condition (§6.2), or also as proxy measurement (§6.3).
+PRIOR_USES = ("none", "init", "proxy")
+
+
+def _check_number(name: str, value, *, lo: float = 0.0, lo_open: bool = True, hi: float = np.inf, hi_open: bool = True, optional: bool = False):
+    """``value`` as a float within its bounds (``None`` passes when ``optional``); else a ``ValueError`` naming the field."""
+    if value is None and optional:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = np.nan
+    above = x > lo if lo_open else x >= lo
+    below = x < hi if hi_open else x <= hi
+    if not (np.isfinite(x) and above and below):
+        bounds = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        raise ValueError(f"NavigationSetup.{name} must be a finite number in {bounds}{' or None' if optional else ''}, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class NavigationSetup:
+    """One filter run's set-up besides the truth and the random stream, validated on construction.
+
+    ``filter_name``/``tuning``/``P0`` (``None``: ``tuning.P_0``): the filter and its start.
+    ``prior``/``prior_use``: the body-rate prior and how it is used (:data:`PRIOR_USES`:
+    ``"none"``; ``"init"``, ``ω̂_0`` and ``P_0``'s ω block from the prior, §6.2, with
+    ``P0_w_prior`` overriding that block's variance; ``"proxy"``, which also initialises
+    and pushes the prior as an ``ω`` measurement of covariance ``R_w I`` per ``proxy_mode``, §6.3).
+    ``pose_noise``: the simulated measurements' noise (eqs 33–34) and the filter's ``R_d``;
+    ``filter_noise`` gives the filter another one, for a study that mis-models the noise on
+    purpose. ``faults``: ``(start_s, length_s)`` windows of heavy noise
+    (``fault_sigma_q_rad``, ``fault_sigma_r_m``). ``gate_confidence`` (``None``: no gates) from
+    ``gate_start_s``; ``reacquire_window``: see :func:`estimators.navigation.run_navigation`
+    (``None``: no re-acquisition). ``consider``: error-state indices considered, not estimated
+    (:data:`estimators.state.K_STATES` in one-axis tumbles). ``inertia_range``: the initial
+    inertia guess ``J_T · a``, ``a_i ~ U(lo, hi)`` (§6).
+    """
+
+    filter_name: str
+    tuning: Tuning
+    P0: np.ndarray | None = None
+    prior: BodyRatePrior | None = None
+    prior_use: str = "none"
+    proxy_mode: str = "always"
+    R_w: float = R_OMEGA_PROXY
+    pose_noise: PoseNoise = PoseNoise()
+    filter_noise: PoseNoise | None = None
+    faults: tuple = ()
+    fault_sigma_q_rad: float = 1.5
+    fault_sigma_r_m: float = 20.0
+    gate_confidence: float | None = 0.99
+    gate_start_s: float = 10.0
+    reacquire_window: int | None = 5
+    consider: tuple = ()
+    inertia_range: tuple = (0.7, 1.3)
+    P0_w_prior: float | None = None
+
+    def __post_init__(self):
+        self._check_choices()
+        self._check_numbers()
+        if self.P0 is not None:
+            P0 = np.asarray(self.P0, dtype=float)
+            if P0.shape != (N_ERROR, N_ERROR) or not np.all(np.isfinite(P0)):
+                raise ValueError(f"NavigationSetup.P0 must be a finite {N_ERROR}x{N_ERROR} covariance of the error state or None, got shape {P0.shape}")
+            object.__setattr__(self, "P0", P0)
+        object.__setattr__(self, "faults", parse_faults(self.faults))
+        consider = tuple(int(i) for i in self.consider)
+        if any(not 0 <= i < N_ERROR for i in consider):
+            raise ValueError(f"NavigationSetup.consider must hold error-state indices 0..{N_ERROR - 1}, got {self.consider!r}")
+        object.__setattr__(self, "consider", consider)
+        lo, hi = (float(v) for v in self.inertia_range)
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
+            raise ValueError(f"NavigationSetup.inertia_range must be (lo, hi) with 0 < lo <= hi, got {self.inertia_range!r}")
+        object.__setattr__(self, "inertia_range", (lo, hi))
+
+    def _check_choices(self) -> None:
+        if self.filter_name not in FILTERS:
+            raise ValueError(f"NavigationSetup.filter_name must be one of {tuple(FILTERS)}, got {self.filter_name!r}")
+        if not isinstance(self.tuning, Tuning):
+            raise ValueError(f"NavigationSetup.tuning must be a Tuning (estimators.tuning.get_tuning), got {type(self.tuning).__name__}")
+        if self.prior_use not in PRIOR_USES:
+            raise ValueError(f"NavigationSetup.prior_use must be one of {PRIOR_USES}, got {self.prior_use!r}")
+        if self.prior_use != "none" and not isinstance(self.prior, BodyRatePrior):
+            raise ValueError(f"NavigationSetup.prior must be a BodyRatePrior when prior_use is {self.prior_use!r}, got {self.prior!r}")
+        if self.proxy_mode not in PROXY_MODES:
+            raise ValueError(f"NavigationSetup.proxy_mode must be one of {PROXY_MODES}, got {self.proxy_mode!r}")
+        for name in ("pose_noise", "filter_noise"):
+            noise = getattr(self, name)
+            if not (isinstance(noise, PoseNoise) or (name == "filter_noise" and noise is None)):
+                raise ValueError(f"NavigationSetup.{name} must be a PoseNoise{' or None' if name == 'filter_noise' else ''}, got {noise!r}")
+
+    def _check_numbers(self) -> None:
+        _check_number("R_w", self.R_w)
+        _check_number("fault_sigma_q_rad", self.fault_sigma_q_rad)
+        _check_number("fault_sigma_r_m", self.fault_sigma_r_m)
+        _check_number("gate_confidence", self.gate_confidence, hi=1.0, optional=True)
+        _check_number("gate_start_s", self.gate_start_s, lo_open=False)
+        _check_number("P0_w_prior", self.P0_w_prior, optional=True)
+        w = self.reacquire_window
+        if w is not None and (isinstance(w, bool) or not isinstance(w, int | np.integer) or w < 1):
+            raise ValueError(f"NavigationSetup.reacquire_window must be a positive whole number of measurements or None, got {w!r}")
+
+
+def simulate_measurements(tr: Truth, setup: NavigationSetup, rng: np.random.Generator) -> tuple:
+    """``(t, q_TS, r_ST_T, faulty)``: the pose estimator's measurements of ``tr`` (eqs 33–34) with ``setup``'s noise and faults."""
+    noise = setup.pose_noise
+    m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=noise.sigma_q_rad, sigma_r_m=noise.sigma_r_m,
+                                   faults=setup.faults, fault_sigma_q_rad=setup.fault_sigma_q_rad, fault_sigma_r_m=setup.fault_sigma_r_m,
+                                   noise=noise.model)
+    return m.t, m.q_TS, m.r_ST_T, m.faulty
+
+
+def navigate(tr: Truth, setup: NavigationSetup, rng: np.random.Generator, meas=None):
     """One filter run on the truth ``tr``; returns ``(NavigationRun, (t_meas, q_meas, r_meas, faulty))``.
 
-    Draws, in this order from ``rng``: the measurements (unless ``meas`` is
-    given; noise ``pose_noise``, eqs 33–34), then the initial inertia guess — so runs that share a seed share
-    both. The filter's ``R_d`` is ``pose_noise`` too; ``filter_noise`` gives the
-    filter another one, for a study that mis-models the noise on purpose. ``prior_use``: ``"none"``, ``"init"`` (``ω̂_0`` and ``P_0``'s ω block
-    from the prior, §6.2; ``P0_w_prior`` overrides that block's variance) or
-    ``"proxy"`` (also initialises, and pushes the prior as a ``ω`` measurement
-    per ``proxy_mode``, §6.3). ``reacquire_window``: see
-    :func:`estimators.navigation.run_navigation` (``None``: no re-acquisition).
+    Draws, in this order from ``rng``: the measurements (unless ``meas`` is given,
+    :func:`simulate_measurements`), then the initial inertia guess (:func:`initial_guess`) —
+    so runs that share a seed share both. The prior is used as ``setup.prior_use`` says.
     """
     if meas is None:
-        m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
-                                       sigma_r_m=pose_noise.sigma_r_m, faults=faults, fault_sigma_q_rad=fault_sigma_q_rad,
-                                       fault_sigma_r_m=fault_sigma_r_m, noise=pose_noise.model)
-        meas = (m.t, m.q_TS, m.r_ST_T, m.faulty)
-    x0 = initial_guess(tr, rng, inertia_range)
-    P0 = tuning.P_0 if P0 is None else np.asarray(P0, dtype=float)
-    if prior_use in ("init", "proxy"):
-        x0, P0 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
-        if P0_w_prior is not None:
-            P0[DW_ST_T, DW_ST_T] = P0_w_prior * np.eye(3)
+        meas = simulate_measurements(tr, setup, rng)
+    x0 = initial_guess(tr, rng, setup.inertia_range)
+    P0 = setup.tuning.P_0 if setup.P0 is None else setup.P0
+    if setup.prior_use in ("init", "proxy"):
+        x0, P0 = initialize_with_prior(x0, P0, setup.prior, tr.servicer[0])
+        if setup.P0_w_prior is not None:
+            P0[DW_ST_T, DW_ST_T] = setup.P0_w_prior * np.eye(3)
     run = run_navigation(
-        filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=tuning,
-        pose_noise=pose_noise if filter_noise is None else filter_noise,
-        gate_confidence=gate_confidence, gate_start_s=gate_start_s, prior=prior,
-        proxy=proxy_mode if prior_use == "proxy" else None, R_w=R_w, consider=consider,
-        reacquire_window=reacquire_window,
+        setup.filter_name, tr.t, tr.servicer, tr.J_S_diag, *meas[:3], x0=x0, P0=P0, tuning=setup.tuning,
+        pose_noise=setup.pose_noise if setup.filter_noise is None else setup.filter_noise,
+        gate_confidence=setup.gate_confidence, gate_start_s=setup.gate_start_s, prior=setup.prior,
+        proxy=setup.proxy_mode if setup.prior_use == "proxy" else None, R_w=setup.R_w, consider=setup.consider,
+        reacquire_window=setup.reacquire_window,
     )
     return run, meas
 

@@ -8,9 +8,9 @@ from estimators.filter import NonFiniteError
 from estimators.measurement import PoseNoise
 from estimators.navigation import make_filter
 from estimators.process_model import RelativeProcessModel
+from estimators.state import Q_TS
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from estimators.state import Q_TS
 
 FILTERS = ["ekf", "ukf"]
 

@@ -20,8 +20,8 @@ from estimators.attitude import quat_multiply, rotvec_to_quat
 from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
-from estimators.tuning import get_tuning
 from estimators.state import K_STATES
+from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 
 SIGMA_0 = np.repeat([0.1, 0.005, 0.5, 0.02, 0.1], [3, 3, 3, 3, 2]) * np.sqrt(0.1)

@@ -14,9 +14,9 @@ from estimators.attitude import quat_conjugate, quat_multiply, quat_to_rotvec
 from estimators.error_state import boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
+from estimators.state import K_STATES, Q_TS, R_ST_T
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from estimators.state import K_STATES, Q_TS, R_ST_T
 
 #: noise far from the paper's 0.12 rad / 0.37 m, so a filter still using those would fail by a factor 16 and 10 in NIS
 NOISE = PoseNoise(sigma_q_rad=0.03, sigma_r_m=1.2, model="gaussian")

@@ -9,9 +9,9 @@ from estimators.measurement import TargetRateMeasurement
 from estimators.navigation import run_navigation
 from estimators.prior import BodyRatePrior, initialize_with_prior, rate_proxy, tuning_for_prior
 from estimators.measurement import PoseNoise
+from estimators.state import DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS, W_B, W_ST_T
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
-from estimators.state import DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS, W_B, W_ST_T
 from studies.sim.metrics import DEFAULT_THRESHOLDS, convergence_time, state_errors
 from studies.sim.scenarios import get_scenario
 

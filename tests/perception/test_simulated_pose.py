@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from estimators.attitude import attitude_angle, quat_conjugate, quat_multiply, quat_to_rotvec
-from perception.simulated_pose import simulate_pose_measurements
 from estimators.state import Q_TS, R_ST_T
+from perception.simulated_pose import simulate_pose_measurements
 
 
 def _truth(n=4001, dt=0.5, r0=50.0):

@@ -4,8 +4,8 @@
 import numpy as np
 import pandas as pd
 import pytest
-from estimators.state import R_ST_T, W_ST_T
 
+from estimators.state import R_ST_T, W_ST_T
 from studies.cli import main
 from studies.recording.reader import TIME_COLUMN, export_series, summarize_recording
 from studies.sim.truth import simulate_truth

@@ -7,8 +7,8 @@ the truth rates and range; a stereo frame's images and clouds.
 from types import SimpleNamespace
 
 import numpy as np
-from estimators.state import R_ST_T, W_ST_T
 
+from estimators.state import R_ST_T, W_ST_T
 from lightcurves.prior import extract_spin_prior
 from studies.recording.reader import _open_store, export_series
 from studies.recording.lightcurve import write_lightcurve_recording

@@ -1,12 +1,13 @@
 """`lcnav run`: the three outputs, their content, and one-line refusal of bad input with no output."""
 
+import dataclasses
 import json
 
 import numpy as np
 import pandas as pd
 import pytest
-from estimators.state import K_STATES, R_ST_T
 
+from estimators.state import K_STATES, R_ST_T
 from studies.cli import main
 from studies.sim.scenarios import get_scenario
 from tests.rerun_cli import assert_rrd_verifies, rerun
@@ -114,16 +115,17 @@ def test_navigate_draws_and_filters_with_one_pose_noise():
     """``navigate`` simulates with ``pose_noise`` and gives the filter the same ``R_d`` (unless told to mis-model)."""
     from estimators.measurement import PoseNoise
     from estimators.tuning import get_tuning
-    from studies.sim.navigation import navigate
+    from studies.sim.navigation import NavigationSetup, navigate
     from studies.sim.scenarios import get_scenario
     from studies.sim.truth import simulate_truth
 
     tr = simulate_truth(get_scenario("SC1"), 400.0, 1.0)
     noise = PoseNoise(0.03, 1.2, "gaussian")
-    run, (_, _, r, _) = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, consider=K_STATES)
+    setup = NavigationSetup("ekf", get_tuning("sc1"), pose_noise=noise, consider=K_STATES)
+    run, (_, _, r, _) = navigate(tr, setup, np.random.default_rng(3))
     assert run.pose_noise == noise
     # 1200 position-error components of sd 1.2/sqrt(3): their variance within 15 % of R (0.48 m²; ~4 % sd at this size)
     assert np.var(r - tr.x[1:, R_ST_T]) == pytest.approx(noise.R_position[0, 0], rel=0.15)
     wrong = PoseNoise()
-    run, _ = navigate(tr, "ekf", get_tuning("sc1"), np.random.default_rng(3), pose_noise=noise, filter_noise=wrong, consider=K_STATES)
+    run, _ = navigate(tr, dataclasses.replace(setup, filter_noise=wrong), np.random.default_rng(3))
     assert run.pose_noise == wrong
