@@ -41,9 +41,9 @@ import pandas as pd
 
 from estimators.navigation import FILTERS
 from lightcurves.targets import TARGETS
-from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate_arm, plot_spectrum, record_lightcurve, record_run, render_prior
+from studies.catalog.figures import plot_spectrum, pyplot, save_png
+from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate_arm, record_lightcurve, record_run, render_prior
 from studies.engine.config import ConfigError, Field, StudyConfig
-from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import describe, proportion_interval
@@ -240,18 +240,9 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     return tables
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def plot_rate_errors(runs: pd.DataFrame, experiments, path: Path) -> None:
     """``rate_error.png``: each seed's light-curve rate error per experiment, with its 1-σ."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 3.6), layout="constrained")
     for i, e in enumerate(experiments):
         sub = runs[runs["experiment"] == e]
@@ -262,14 +253,12 @@ def plot_rate_errors(runs: pd.DataFrame, experiments, path: Path) -> None:
     ax.set(xticks=range(len(experiments)), xticklabels=list(experiments), ylabel="rate error (%)",
            title="WindowCLEAN rate from the rendered light curve vs truth (±1σ)")
     ax.legend(fontsize=8)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, path)
 
 
 def plot_convergence(long: pd.DataFrame, filters, experiments, path: Path) -> None:
     """``convergence.png``: per experiment and group, the median convergence time of each filter and arm (bars: quartiles)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(len(experiments), 1, figsize=(8, 3.2 * len(experiments)), layout="constrained", squeeze=False)
     for ax, e in zip(axes[:, 0], experiments):
         sub = long[long["experiment"] == e]
@@ -289,6 +278,4 @@ def plot_convergence(long: pd.DataFrame, filters, experiments, path: Path) -> No
                    label=f"{f.upper()}, {ARM_LABELS[a]}")
         ax.set(xticks=range(len(GROUPS)), xticklabels=list(GROUPS), ylabel="convergence time (s)", title=f"{e}: median over seeds (converged runs)")
         ax.legend(fontsize=7)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, path)

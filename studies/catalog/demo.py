@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from studies.sim.chain import (ARM_LABELS, flat_metrics, navigate_arm, plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum,
-                           record_lightcurve, record_run, render_prior)
+from studies.catalog.figures import plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum
+from studies.sim.chain import ARM_LABELS, flat_metrics, navigate_arm, record_lightcurve, record_run, render_prior
 from lightcurves.io import to_timeseries
 from studies.engine.io import atomic_path, output_folder, write_json, write_table, write_text
 from studies.sim.metrics import GROUPS, UNITS

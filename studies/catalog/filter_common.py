@@ -12,8 +12,8 @@ import pandas as pd
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.prior import BodyRatePrior
+from studies.catalog.figures import pyplot, save_png
 from studies.engine.config import ConfigError, Field
-from studies.engine.io import atomic_path
 
 
 #: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
@@ -160,10 +160,7 @@ def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tup
     out (a fault window). Median and inter-quartile band over seeds
     (:func:`plot_error_bands`), log scale; written atomically as PNG.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     series = read_error_series(path.parent, runs["run_id"])
     filters = list(dict.fromkeys(runs["filter"]))
@@ -187,9 +184,7 @@ def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tup
                 ax.set_xlabel("time (s)")
             if i == 0 and j == 0:
                 ax.legend(fontsize=7)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, path)
 
 
 def paired_specs(config, arm: str, run_fields) -> list:

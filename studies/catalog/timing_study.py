@@ -31,10 +31,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from studies.catalog.figures import pyplot, save_png
 from studies.sim.combina import TARGETS, TU, CombinaConfig, run_combina
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig
-from studies.engine.io import atomic_path, write_table
+from studies.engine.io import write_table
 from studies.engine.stats import bootstrap_interval, describe
 from studies.engine.sweep import RunSpec, make_specs, run_dir
 from studies.engine.tables import Table
@@ -150,10 +151,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 def plot_timing(pooled: pd.DataFrame, percentiles, path: Path) -> None:
     """Fig. 19 on one machine: iteration time at each percentile per part (left), and the distributions (right)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 3.8), layout="constrained")
     qs = np.asarray(percentiles, dtype=float)
@@ -165,6 +163,4 @@ def plot_timing(pooled: pd.DataFrame, percentiles, path: Path) -> None:
     ax.set(yscale="log", xlabel="percentile of iterations", ylabel="time per iteration (ms)", title="time at each percentile")
     ax2.set(xscale="log", xlabel="time per iteration (ms)", ylabel="iterations", title="distribution")
     ax.legend(fontsize=7)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, path)

@@ -34,9 +34,9 @@ import pandas as pd
 from estimators.attitude import attitude_angle, random_quaternion
 from estimators.dynamics import angular_momentum_norm, propagate_relative, rotational_energy
 from estimators.state import Q_TS, R_I, R_ST_T, W_B, W_ST_T
+from studies.catalog.figures import pyplot, save_png
 from studies.recording.blueprint import run_blueprint, send_estimate, send_truth
 from studies.engine.config import ConfigError, Field, StudyConfig
-from studies.engine.io import atomic_path
 from studies.recording.writer import recording
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import describe
@@ -170,10 +170,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 def plot_rk4_errors(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None:
     """``rk4_error.png``: each run's maximum RK4 position error per scenario (log scale) and the tolerance."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     scenarios = list(dict.fromkeys(runs["scenario"]))
     fig, ax = plt.subplots(figsize=(6.4, 3.6), layout="constrained")
@@ -184,6 +181,4 @@ def plot_rk4_errors(runs: pd.DataFrame, config: StudyConfig, path: Path) -> None
     ax.set(xticks=range(len(scenarios)), xticklabels=scenarios, yscale="log", ylabel="RK4 position error (mm)",
            title=f"RK4 of eq. 21 (step {config['rk4_dt_s']:g} s) vs truth over {config['duration_s']:g} s")
     ax.legend(fontsize=8)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    plt.close(fig)
+    save_png(fig, path, dpi=120)

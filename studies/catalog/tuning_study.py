@@ -37,9 +37,9 @@ import pandas as pd
 from estimators.navigation import FILTERS
 from estimators.state import ERROR_GROUPS, K_STATES
 from estimators.tuning import TUNINGS, Tuning, get_tuning
+from studies.catalog.figures import pyplot, save_png
 from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
-from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
 from studies.recording.navigation import record_navigation
 from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
@@ -224,10 +224,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
 
 def plot_scores(sc_table: pd.DataFrame, best: pd.DataFrame, config, path: Path) -> None:
     """``tuning_scores.png``: G over the grid (points × scenarios) per filter, KF_sc circled, KF_gen's point marked."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     filters = list(dict.fromkeys(sc_table["filter"]))
     scen = list(config["scenarios"])
@@ -244,6 +241,4 @@ def plot_scores(sc_table: pd.DataFrame, best: pd.DataFrame, config, path: Path) 
         ax.set(yticks=range(len(scen)), yticklabels=scen, xlabel="Q_d grid point", title=f"{f.upper()}: score G (lower is better)")
         ax.legend(fontsize=7, loc="upper right")
         fig.colorbar(im, ax=ax, label="G")
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110)
-    plt.close(fig)
+    save_png(fig, path)
