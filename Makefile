@@ -9,13 +9,17 @@ STAMP   := $(VENV)/.lcnav-installed
 export RERUN_ANALYTICS := 0
 export MPLBACKEND := Agg
 
-.PHONY: demo test bench readme system clean
+.PHONY: demo test lint bench readme system clean
 
 demo: $(STAMP)
 	$(VENV)/bin/lcnav demo --out runs/demo
 
 test: $(STAMP)
 	$(PY) -m pytest
+
+# ruff: pyflakes, pycodestyle (lines up to 160) and McCabe complexity (at most 12), as pyproject.toml's [tool.ruff] says.
+lint: $(STAMP)
+	$(PY) -m ruff check .
 
 bench: $(STAMP)
 	$(PY) -m benchmarks

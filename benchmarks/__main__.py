@@ -56,7 +56,8 @@ def main(names: list[str]) -> None:
         body = mod.run().rstrip() + "\n"
         old[name] = f"_Measured {today} on {_machine()}._\n\n" + body
         print(body)
-    parts = ["# Benchmark results\n", "Written by `make bench` (`python -m benchmarks [NAME ...]`). Each section states", "the machine and date it was measured on; ratios compare against baselines", "measured in the same run.\n"]
+    parts = ["# Benchmark results\n", "Written by `make bench` (`python -m benchmarks [NAME ...]`). Each section states",
+             "the machine and date it was measured on; ratios compare against baselines", "measured in the same run.\n"]
     for name in available:
         if name in old:
             parts.append(f"<!-- bench:{name} -->\n{old[name]}<!-- /bench:{name} -->\n")

@@ -63,7 +63,9 @@ def run() -> str:
         "tuning study) is conservative on purpose. A negative NEES/dof means a diverged run whose `P` lost "
         "positive definiteness.",
         "",
-        "| scenario | tuning | filter | dof | NEES in band (%) | NEES in band from t = 1 s (%) | NEES/dof [95 % CI] | worst run NEES/dof | NIS att in band (%) | NIS pos in band (%) | NIS att/dof | NIS pos/dof | gate att rejected (%) | gate pos rejected (%) | NIS att low (%) | NIS pos low (%) |",
+        "| scenario | tuning | filter | dof | NEES in band (%) | NEES in band from t = 1 s (%) | NEES/dof [95 % CI] | worst run NEES/dof "
+        "| NIS att in band (%) | NIS pos in band (%) | NIS att/dof | NIS pos/dof | gate att rejected (%) | gate pos rejected (%) "
+        "| NIS att low (%) | NIS pos low (%) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

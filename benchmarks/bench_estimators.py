@@ -69,24 +69,28 @@ def run() -> str:
         for gate in (0.99, None):
             tot, tp, tu = min((_per_step(name, tr, meas, tun, n, gate) for _ in range(3)), key=lambda r: r[0])
             step[(name, gate)] = tot
-            rows.append((f"{name.upper()} predict+update{' (gated)' if gate else ' (no gate)'} (ms)", f"{tot * 1e3:.3f}", f"predict {tp * 1e3:.3f}, update {tu * 1e3:.3f}; {tot / base:.0f}× baseline"))
+            rows.append((f"{name.upper()} predict+update{' (gated)' if gate else ' (no gate)'} (ms)", f"{tot * 1e3:.3f}",
+                         f"predict {tp * 1e3:.3f}, update {tu * 1e3:.3f}; {tot / base:.0f}× baseline"))
     x0 = tr.x[0].copy()
     x0[W_ST_T] = x0[R_ST_T] = x0[V_ST_T] = 0.0
     x0[Q_TS] = [1.0, 0.0, 0.0, 0.0]
     runs = {}
     for name in ("ekf", "ukf"):
         t0 = time.perf_counter()
-        run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, meas.t, meas.q_TS, meas.r_ST_T, x0=x0, tuning=tun, pose_noise=PoseNoise(model="isotropic"), gate_confidence=0.99, gate_start_s=10.0, consider=K_STATES)
+        run_navigation(name, tr.t, tr.servicer, tr.J_S_diag, meas.t, meas.q_TS, meas.r_ST_T, x0=x0, tuning=tun, pose_noise=PoseNoise(model="isotropic"),
+                       gate_confidence=0.99, gate_start_s=10.0, consider=K_STATES)
         runs[name] = time.perf_counter() - t0
         rows.append((f"300 s SC1 run at τ_s = 0.5 s, {name.upper()} (s)", f"{runs[name]:.3f}", f"{len(tr.t) - 1} steps, gated, incl. bookkeeping"))
     rows.append(("baseline: filterpy KalmanFilter predict+update, 14 states, 6 meas. (ms)", f"{base * 1e3:.3f}", "linear, same sizes"))
-    rows.append(("EKF: gating cost per step (ms)", f"{(step[('ekf', 0.99)] - step[('ekf', None)]) * 1e3:.3f}", "two per-source NIS tests (chi-square bounds cached)"))
+    rows.append(("EKF: gating cost per step (ms)", f"{(step[('ekf', 0.99)] - step[('ekf', None)]) * 1e3:.3f}",
+                 "two per-source NIS tests (chi-square bounds cached)"))
     load = os.getloadavg()[0]
     lines = [
         "## Estimators (EKF and USQUE UKF, 14 error states)",
         "",
         "Goals: EKF ≤ 0.3 ms and UKF ≤ 3 ms per step; 300 s EKF run well under 1 s.",
-        f"Load average when measured: {load:.1f} on {os.cpu_count()} cores (shared machine: absolute times are inflated; the ratios to the baseline are steadier).",
+        f"Load average when measured: {load:.1f} on {os.cpu_count()} cores "
+        "(shared machine: absolute times are inflated; the ratios to the baseline are steadier).",
         "",
         "| measure | value | note |",
         "|---|---|---|",

@@ -94,12 +94,14 @@ def _clean_section() -> str:
             direct = f"{t_direct * 1e3:.0f}"
         else:
             direct = "— (O(N·M), not run)"
-        rows.append(f"| {t.size} | {freq.size} | {fast.n_iter} | {t_fast * 1e3:.1f} | {direct} | {t_ls * 1e3:.1f} | {t_fast / t_ls:.1f} | {'%.0f' % (t_ls_slow * 1e3) if np.isfinite(t_ls_slow) else '—'} |")
+        rows.append(f"| {t.size} | {freq.size} | {fast.n_iter} | {t_fast * 1e3:.1f} | {direct} | {t_ls * 1e3:.1f} | {t_fast / t_ls:.1f} "
+                    f"| {'%.0f' % (t_ls_slow * 1e3) if np.isfinite(t_ls_slow) else '—'} |")
     return "\n".join(
         [
             "### WindowCLEAN against astropy LombScargle (same frequency grid)",
             "",
-            "| N | grid points | CLEAN iterations | WindowCLEAN fast (ms) | WindowCLEAN direct (ms) | LombScargle fast (ms) | ratio fast/LS | LombScargle cython (ms) |",
+            "| N | grid points | CLEAN iterations | WindowCLEAN fast (ms) | WindowCLEAN direct (ms) | LombScargle fast (ms) | ratio fast/LS "
+            "| LombScargle cython (ms) |",
             "|---|---|---|---|---|---|---|---|",
             *rows,
             "",
@@ -112,7 +114,8 @@ def _clean_section() -> str:
 def _rate_section() -> str:
     target = get_target("atlas-centaur")
     renderer = UnresolvedRenderer(target)
-    sim = simulate_lightcurve(target, axis_T=[0, 0, 1], rate_rad_s=np.radians(5.0), duration_s=1700.0, cadence_s=0.5, rng=np.random.default_rng(3), noise=False, uneven=False, renderer=renderer)
+    sim = simulate_lightcurve(target, axis_T=[0, 0, 1], rate_rad_s=np.radians(5.0), duration_s=1700.0, cadence_s=0.5, rng=np.random.default_rng(3),
+                              noise=False, uneven=False, renderer=renderer)
     t_all, m_all = sim.lightcurve.t_s, sim.lightcurve.mag
     f_true = 5.0 / 360.0
     rows = []
@@ -143,7 +146,8 @@ def _rate_section() -> str:
         [
             "### Rate error against noise and arc length (Atlas-Centaur-like, 5 deg/s, 0.5 s cadence, gaps)",
             "",
-            "| arc (s) | noise σ (mag) | median rate error (%) | median reported 1-σ (%) | LombScargle peak error, oracle harmonic (%) | LS top peak ≠ prior's strongest harmonic | no period |",
+            "| arc (s) | noise σ (mag) | median rate error (%) | median reported 1-σ (%) | LombScargle peak error, oracle harmonic (%) "
+            "| LS top peak ≠ prior's strongest harmonic | no period |",
             "|---|---|---|---|---|---|---|",
             *rows,
             "",

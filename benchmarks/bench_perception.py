@@ -61,7 +61,8 @@ def _bcpd_rows() -> list[str]:
         d_rot = [np.rad2deg(dcm_angle(a.R, b.R)) for a, b in zip(fast, dense)]
         d_pos = [1e3 * np.linalg.norm(a.t - b.t) for a, b in zip(fast, dense)]
         summary.append(
-            f"| {n_model} | {np.median(dense_ms) / np.median(fast_ms[:N_DENSE]):.0f}x | {np.median(d_rot):.3f} | {max(d_rot):.3f} | {np.median(d_pos):.1f} | {max(d_pos):.1f} |"
+            f"| {n_model} | {np.median(dense_ms) / np.median(fast_ms[:N_DENSE]):.0f}x | {np.median(d_rot):.3f} | {max(d_rot):.3f} "
+            f"| {np.median(d_pos):.1f} | {max(d_pos):.1f} |"
         )
     rows += [
         "",
@@ -78,7 +79,8 @@ def _gamma_rows() -> list[str]:
     """Initial σ² (Hirose's γ) in measure_pose on rendered one-sided views of the rocket body."""
     from studies.sim.frames import frame_pipeline
 
-    rows = ["| gamma | frames | median axis err. deg | max axis err. deg | median pos. err. mm | max pos. err. mm | median BCPD ms |", "|---|---|---|---|---|---|---|"]
+    rows = ["| gamma | frames | median axis err. deg | max axis err. deg | median pos. err. mm | max pos. err. mm | median BCPD ms |",
+            "|---|---|---|---|---|---|---|"]
     cases = [(35.0 + 5.0 * (seed % 3), seed) for seed in range(1, 9)]
     for gamma in (1.0, 0.1):
         ax, pos, ms = [], [], []
@@ -126,7 +128,8 @@ def _stereo_rows() -> list[str]:
                     g = cv2.createCLAHE(clipLimit=3.0, tileGridSize=(8, 8)).apply(tone_map(L, L.max()))
                     cells = [feature_cover(g, d) for d in DETECTORS]
                     cover.append(f"| {name} | {range_m:.0f} | " + " | ".join(f"{n} / {c:.2f}" for n, c in cells) + " |")
-    return [f"Mitsuba variant: `{variant}`, 16 spp, textured targets.", "", *timing, "", "Feature cover on the same 512-px left images (CLAHE-equalised, as the pipeline sees them):", "", *cover]
+    return [f"Mitsuba variant: `{variant}`, 16 spp, textured targets.", "", *timing, "",
+            "Feature cover on the same 512-px left images (CLAHE-equalised, as the pipeline sees them):", "", *cover]
 
 
 def run() -> str:

@@ -97,30 +97,12 @@ def run_navigation(
     them (:mod:`estimators.reacquisition`); ``None`` turns this off (the
     paper's filters, which a long blackout can lock out for good).
     """
-    t = np.asarray(t, dtype=float)
-    servicer = np.asarray(servicer, dtype=float)
-    if t.ndim != 1 or len(t) < 2 or servicer.shape != (len(t), N_ABSOLUTE):
-        raise ValueError(f"t must be (N>=2,) and servicer (N, 13), got {t.shape} and {servicer.shape}")
-    steps = np.diff(t)
-    tau = float(steps[0])
-    if not (tau > 0 and np.allclose(steps, tau, rtol=0, atol=1e-9)):
-        raise ValueError("t must be evenly spaced by the sampling time tau_s > 0")
+    t, servicer, tau = _check_grid(t, servicer)
     if proxy is not None and proxy not in PROXY_MODES:
         raise ValueError(f"proxy must be None or one of {PROXY_MODES}, got {proxy!r}")
     if proxy is not None and prior is None:
         raise ValueError("the proxy measurement needs a spin prior with a rate")
-    t_meas = np.asarray(t_meas, dtype=float)
-    q_meas = np.asarray(q_meas, dtype=float)
-    r_meas = np.asarray(r_meas, dtype=float)
-    if q_meas.shape != (len(t_meas), 4) or r_meas.shape != (len(t_meas), 3):
-        raise ValueError(f"q_meas must be (M, 4) and r_meas (M, 3) with M = len(t_meas), got {q_meas.shape}, {r_meas.shape}")
-    if not (np.all(np.isfinite(q_meas)) and np.all(np.isfinite(r_meas)) and np.all(np.isfinite(t_meas))):
-        raise ValueError("measurements contain NaN or Inf")
-    k_meas = np.rint((t_meas - t[0]) / tau).astype(int)
-    if np.any(k_meas < 1) or np.any(k_meas >= len(t)) or np.any(np.abs(t[np.clip(k_meas, 0, len(t) - 1)] - t_meas) > 1e-6):
-        raise ValueError("every measurement time must be a grid time after t[0]")
-    meas_at = {int(k): i for i, k in enumerate(k_meas)}
-
+    q_meas, r_meas, meas_at = _measurements_on_grid(t, tau, t_meas, q_meas, r_meas)
     model = RelativeProcessModel(J_S_diag)
     filt = make_filter(filter_name, model, x0, tuning.P_0 if P0 is None else P0, tuning.Q_d(tau), gate_confidence=gate_confidence, **filter_kwargs)
     att, pos = pose_noise.sources()
@@ -138,10 +120,7 @@ def run_navigation(
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
             settling = t[k - 1] - t[0] < tuning.settling_s
-            filt.Q = tuning.Q_d(tau, settling=settling)
-            filt.consider = settle_consider if settling else consider
-            if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
-                filt.linearization_covariance = settling
+            _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
@@ -153,11 +132,7 @@ def run_navigation(
         gate = t[k] - t[0] >= gate_start_s
         decisions = filt.update(parts, t=t[k], gate=gate)
         if k in meas_at:
-            verdict = {d.source: d for d in decisions}
-            for s in SOURCES:
-                y, S = filt.innovations[s]
-                nis[s][k] = verdict[s].e2 if s in verdict else float(y @ np.linalg.solve(S, y))
-                accepted[s][k] = verdict[s].accepted if s in verdict else True
+            _record_camera_sources(filt, decisions, k, nis, accepted)
             if reacq is not None and gate:
                 innovations = dict(filt.innovations)
                 for src in (att, pos):
@@ -171,3 +146,48 @@ def run_navigation(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
     )
+
+
+def _check_grid(t, servicer) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(t, servicer, τ_s)``: the step grid (N ≥ 2, evenly spaced) and the servicer's state (N, 13) on it."""
+    t = np.asarray(t, dtype=float)
+    servicer = np.asarray(servicer, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or servicer.shape != (len(t), N_ABSOLUTE):
+        raise ValueError(f"t must be (N>=2,) and servicer (N, 13), got {t.shape} and {servicer.shape}")
+    steps = np.diff(t)
+    tau = float(steps[0])
+    if not (tau > 0 and np.allclose(steps, tau, rtol=0, atol=1e-9)):
+        raise ValueError("t must be evenly spaced by the sampling time tau_s > 0")
+    return t, servicer, tau
+
+
+def _measurements_on_grid(t: np.ndarray, tau: float, t_meas, q_meas, r_meas) -> tuple[np.ndarray, np.ndarray, dict]:
+    """``(q_meas, r_meas, meas_at)``: the checked measurements and ``{step k: measurement index}``."""
+    t_meas = np.asarray(t_meas, dtype=float)
+    q_meas = np.asarray(q_meas, dtype=float)
+    r_meas = np.asarray(r_meas, dtype=float)
+    if q_meas.shape != (len(t_meas), 4) or r_meas.shape != (len(t_meas), 3):
+        raise ValueError(f"q_meas must be (M, 4) and r_meas (M, 3) with M = len(t_meas), got {q_meas.shape}, {r_meas.shape}")
+    if not (np.all(np.isfinite(q_meas)) and np.all(np.isfinite(r_meas)) and np.all(np.isfinite(t_meas))):
+        raise ValueError("measurements contain NaN or Inf")
+    k_meas = np.rint((t_meas - t[0]) / tau).astype(int)
+    if np.any(k_meas < 1) or np.any(k_meas >= len(t)) or np.any(np.abs(t[np.clip(k_meas, 0, len(t) - 1)] - t_meas) > 1e-6):
+        raise ValueError("every measurement time must be a grid time after t[0]")
+    return q_meas, r_meas, {int(k): i for i, k in enumerate(k_meas)}
+
+
+def _set_settling(filt, tuning: Tuning, tau: float, settling: bool, consider) -> None:
+    """In or out of the tuning's settling phase (:mod:`estimators.tuning`): its ``Q_d``, considered states, EKF linearisation."""
+    filt.Q = tuning.Q_d(tau, settling=settling)
+    filt.consider = consider
+    if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
+        filt.linearization_covariance = settling
+
+
+def _record_camera_sources(filt, decisions, k: int, nis: dict, accepted: dict) -> None:
+    """Step ``k``'s NIS and gate decision per camera source (an ungated update counts as accepted)."""
+    verdict = {d.source: d for d in decisions}
+    for s in SOURCES:
+        y, S = filt.innovations[s]
+        nis[s][k] = verdict[s].e2 if s in verdict else float(y @ np.linalg.solve(S, y))
+        accepted[s][k] = verdict[s].accepted if s in verdict else True

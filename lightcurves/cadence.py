@@ -120,7 +120,8 @@ def curve(shape: str, phase_cycles, amplitude_mag: float, rng: np.random.Generat
     return amplitude_mag * (m - m.mean()) / max(np.ptp(m), 1e-12)
 
 
-def heteroscedastic_noise(rng: np.random.Generator, n: int, sigma_mag: float, *, spread: float = 0.4, outlier_fraction: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+def heteroscedastic_noise(rng: np.random.Generator, n: int, sigma_mag: float, *, spread: float = 0.4,
+                          outlier_fraction: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
     """``(noise, mag_err)``: per-point errors log-normal about ``sigma_mag`` (``spread`` in ln), Gaussian noise with those errors,
     and a fraction ``outlier_fraction`` of points off by 4–10 of their σ (the errors reported for them are not inflated)."""
     err = sigma_mag * np.exp(rng.normal(0.0, spread, n))

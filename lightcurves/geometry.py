@@ -147,7 +147,8 @@ def _airmass(elevation_rad: np.ndarray) -> np.ndarray:
     return np.where(h > 0, X, np.inf)
 
 
-def observe(orbit: KeplerOrbit, t_s, epoch: Time, site: EarthLocation = DEFAULT_SITE, *, min_elevation_deg: float = 15.0, max_sun_elevation_deg: float = -12.0) -> Observation:
+def observe(orbit: KeplerOrbit, t_s, epoch: Time, site: EarthLocation = DEFAULT_SITE, *, min_elevation_deg: float = 15.0,
+            max_sun_elevation_deg: float = -12.0) -> Observation:
     """Observation geometry at ``t_s`` seconds after ``epoch`` (see :class:`Observation`).
 
     Visibility: the target is sunlit, at least ``min_elevation_deg`` above the
@@ -175,7 +176,8 @@ def observe(orbit: KeplerOrbit, t_s, epoch: Time, site: EarthLocation = DEFAULT_
     return Observation(t, epoch, r_T, r_O, r_S, rng, elev, sun_elev, phase, sunlit, _airmass(elev), visible)
 
 
-def find_visible_start(orbit: KeplerOrbit, epoch: Time, duration_s: float, site: EarthLocation = DEFAULT_SITE, *, search_s: float = 2 * 86400.0, step_s: float = 60.0, **visibility) -> float:
+def find_visible_start(orbit: KeplerOrbit, epoch: Time, duration_s: float, site: EarthLocation = DEFAULT_SITE, *, search_s: float = 2 * 86400.0,
+                       step_s: float = 60.0, **visibility) -> float:
     """Earliest ``t0`` (s after ``epoch``, on a ``step_s`` grid) with the target visible over ``[t0, t0 + duration_s]``.
 
     The visibility grid is evaluated in 6-hour blocks (cached) and the search

@@ -202,16 +202,8 @@ def _first_bad_time(cells: list[str], time_format: str | None) -> str:
     return "mixes ISO 8601 text and numbers"
 
 
-def read_csv(path, time_format: str | None = None) -> LightCurve:
-    """An observer's CSV with a header ``time, mag[, mag_err]``.
-
-    ``time`` is ISO 8601 UTC text, or numbers: seconds from the first sample
-    (``time_format=None``) or ``"mjd"``, ``"jd"``, ``"unix"``. Every cell must
-    be given (an empty cell is an error, not 0) and be a plain decimal number
-    (no ``0x10``, ``nan``, ``inf``). Rows at the same time are merged by
-    :func:`merge_duplicate_times` with one :class:`DuplicateTimesWarning`.
-    """
-    path = Path(path)
+def _csv_table(path: Path) -> Table:
+    """The CSV's cells as text, columns named in lower case: checked for NUL bytes, UTF-8, one header with 'time' and 'mag', rows."""
     data = path.read_bytes()
     nul = data.find(b"\x00")
     if nul >= 0:
@@ -233,30 +225,46 @@ def read_csv(path, time_format: str | None = None) -> LightCurve:
         raise BadSeries(f"{path.name}: CSV header must contain 'time' and 'mag' (optionally 'mag_err'), got {cols}")
     if len(table) == 0:
         raise BadSeries(f"{path.name}: CSV has a header but no rows; expected one row per sample")
-    mag = _numbers("mag", table["mag"], path.name)
-    mag_err = _numbers("mag_err", table["mag_err"], path.name) if "mag_err" in cols else None
-    raw = table["time"]
-    meta = dict(table.meta)
+    return table
+
+
+def _csv_times(raw, where: str, time_format: str | None, meta: dict) -> Time:
+    """The CSV's time column as UTC times: ISO 8601 text, or numbers in ``time_format`` (``None``: relative seconds, noted in ``meta``)."""
     if np.ma.getmaskarray(raw).any():
-        raise BadSeries(f"{path.name}: column 'time' row {int(np.flatnonzero(np.ma.getmaskarray(raw))[0]) + 1} is empty; expected a time in every row")
+        raise BadSeries(f"{where}: column 'time' row {int(np.flatnonzero(np.ma.getmaskarray(raw))[0]) + 1} is empty; expected a time in every row")
     cells = [str(c).strip() for c in np.asarray(raw)]
     try:
-        if all(_DECIMAL.match(c) for c in cells):
-            values = _numbers("time", raw, path.name)
-            if time_format is None:
-                if np.abs(values).max() > 1e10:
-                    raise BadSeries(f"{path.name}: column 'time' reaches {np.abs(values).max():g} s; expected relative seconds within 1e10")
-                time = Time("2000-01-01T12:00:00", scale="utc") + values * u.s
-                meta["time_origin"] = "relative seconds (no absolute epoch in the CSV)"
-            else:
-                time = Time(values, format=time_format, scale="utc")
-        else:
-            time = Time(cells, format="isot", scale="utc")
+        if not all(_DECIMAL.match(c) for c in cells):
+            return Time(cells, format="isot", scale="utc")
+        values = _numbers("time", raw, where)
+        if time_format is not None:
+            return Time(values, format=time_format, scale="utc")
+        if np.abs(values).max() > 1e10:
+            raise BadSeries(f"{where}: column 'time' reaches {np.abs(values).max():g} s; expected relative seconds within 1e10")
+        meta["time_origin"] = "relative seconds (no absolute epoch in the CSV)"
+        return Time("2000-01-01T12:00:00", scale="utc") + values * u.s
     except (ValueError, TypeError) as e:
         if isinstance(e, BadSeries):
             raise
-        raise BadSeries(f"{path.name}: column 'time' {_first_bad_time(cells, time_format)}; expected ISO 8601 UTC like "
+        raise BadSeries(f"{where}: column 'time' {_first_bad_time(cells, time_format)}; expected ISO 8601 UTC like "
                         f"2024-03-21T20:00:00.5 or decimal {time_format or 'seconds'} in every row") from None
+
+
+def read_csv(path, time_format: str | None = None) -> LightCurve:
+    """An observer's CSV with a header ``time, mag[, mag_err]``.
+
+    ``time`` is ISO 8601 UTC text, or numbers: seconds from the first sample
+    (``time_format=None``) or ``"mjd"``, ``"jd"``, ``"unix"``. Every cell must
+    be given (an empty cell is an error, not 0) and be a plain decimal number
+    (no ``0x10``, ``nan``, ``inf``). Rows at the same time are merged by
+    :func:`merge_duplicate_times` with one :class:`DuplicateTimesWarning`.
+    """
+    path = Path(path)
+    table = _csv_table(path)
+    mag = _numbers("mag", table["mag"], path.name)
+    mag_err = _numbers("mag_err", table["mag_err"], path.name) if "mag_err" in table.colnames else None
+    meta = dict(table.meta)
+    time = _csv_times(table["time"], path.name, time_format, meta)
     t_s = (time - time[0]).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
         k = int(np.flatnonzero(np.diff(t_s) < 0)[0])

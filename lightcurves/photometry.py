@@ -41,7 +41,8 @@ class Telescope:
     altitude_m: float = 2393.0  #: site altitude (scintillation scale height 8 km)
 
     def __post_init__(self):
-        if not (self.aperture_m > 0 and 0 < self.throughput <= 1 and self.read_noise_e >= 0 and self.aperture_radius_arcsec > 0 and self.extinction_mag_per_airmass >= 0):
+        if not (self.aperture_m > 0 and 0 < self.throughput <= 1 and self.read_noise_e >= 0 and self.aperture_radius_arcsec > 0
+                and self.extinction_mag_per_airmass >= 0):
             raise ValueError(f"telescope parameters out of range: {self}")
 
     @property
@@ -88,7 +89,8 @@ def add_noise(mag_true, exposure_s, airmass, telescope: Telescope, rng: np.rando
     return NoisyPhotometry(mag, mag_err, detected)
 
 
-def sample_times(duration_s: float, cadence_s: float, rng: np.random.Generator, *, jitter: float = 0.1, n_gaps: int = 2, gap_fraction: float = 0.06) -> np.ndarray:
+def sample_times(duration_s: float, cadence_s: float, rng: np.random.Generator, *, jitter: float = 0.1, n_gaps: int = 2,
+                 gap_fraction: float = 0.06) -> np.ndarray:
     """Uneven sample times in ``[0, duration_s]``.
 
     A nominal grid of step ``cadence_s`` with uniform timing jitter of

@@ -174,7 +174,8 @@ def mass_properties(vertices, faces, density_kg_m3: float = 1.0) -> MassProperti
     first = (det[:, None] * s).sum(axis=0) / 24.0  # ∫ x dV
     com = first / vol
     # ∫ x xᵀ dV = Σ det/120 (a aᵀ + b bᵀ + c cᵀ + s sᵀ)
-    outer = np.einsum("i,ij,ik->jk", det, a, a) + np.einsum("i,ij,ik->jk", det, b, b) + np.einsum("i,ij,ik->jk", det, c, c) + np.einsum("i,ij,ik->jk", det, s, s)
+    outer = (np.einsum("i,ij,ik->jk", det, a, a) + np.einsum("i,ij,ik->jk", det, b, b)
+             + np.einsum("i,ij,ik->jk", det, c, c) + np.einsum("i,ij,ik->jk", det, s, s))
     cov = outer / 120.0 - vol * np.outer(com, com)  # about the centre of mass
     I_B = density_kg_m3 * (np.trace(cov) * np.eye(3) - cov)
     C_BT, moments = _principal_axes(I_B)
@@ -360,14 +361,16 @@ def atlas_centaur(length_m: float = 12.0, diameter_m: float = 3.05, nozzle_lengt
     return make_target("atlas-centaur", parts, density_kg_m3, dict(length_m=length_m, diameter_m=diameter_m, nozzle_length_m=nozzle_length_m))
 
 
-def vespa(height_m: float = 1.9, bottom_diameter_m: float = 2.6, top_diameter_m: float = 1.6, wall_m: float = 0.04, n_seg: int = 64, density_kg_m3: float = 1600.0) -> Target:
+def vespa(height_m: float = 1.9, bottom_diameter_m: float = 2.6, top_diameter_m: float = 1.6, wall_m: float = 0.04, n_seg: int = 64,
+          density_kg_m3: float = 1600.0) -> Target:
     """VESPA-like payload adapter: hollow CFRP truncated cone plus an aluminium ring, axis along T's z.
 
     The ring (separation interface) sits around the wide lower rim, so the two
     ends differ and the shape is not symmetric fore-aft.
     """
     if not (height_m > 0 and bottom_diameter_m > top_diameter_m > 0 and 0 < wall_m < top_diameter_m / 4):
-        raise ValueError(f"vespa: need height_m > 0, bottom_diameter_m > top_diameter_m > 0, 0 < wall_m < top_diameter_m/4, got {height_m}, {bottom_diameter_m}, {top_diameter_m}, {wall_m}")
+        raise ValueError(f"vespa: need height_m > 0, bottom_diameter_m > top_diameter_m > 0, 0 < wall_m < top_diameter_m/4, "
+                         f"got {height_m}, {bottom_diameter_m}, {top_diameter_m}, {wall_m}")
     Rb, Rt, h, w = bottom_diameter_m / 2, top_diameter_m / 2, height_m / 2, wall_m
     # Closed wall cross-section, counter-clockwise in (r, z): up the outside, in over the top, down the inside.
     shell = [(Rb, -h), (Rt, h), (Rt - w, h), (Rb - w, -h), (Rb, -h)]
@@ -389,10 +392,12 @@ def vespa(height_m: float = 1.9, bottom_diameter_m: float = 2.6, top_diameter_m:
         Part("shell", np.concatenate(shell_v), np.concatenate(shell_f), CFRP),
         Part("ring", np.concatenate(ring_v), np.concatenate(ring_f), ALUMINIUM),
     ]
-    return make_target("vespa", parts, density_kg_m3, dict(height_m=height_m, bottom_diameter_m=bottom_diameter_m, top_diameter_m=top_diameter_m, wall_m=wall_m))
+    return make_target("vespa", parts, density_kg_m3,
+                       dict(height_m=height_m, bottom_diameter_m=bottom_diameter_m, top_diameter_m=top_diameter_m, wall_m=wall_m))
 
 
-def box_wing(bus_m=(1.6, 1.6, 2.2), panel_lengths_m=(5.0, 3.5), panel_width_m: float = 1.8, panel_thickness_m: float = 0.04, density_kg_m3: float = 300.0) -> Target:
+def box_wing(bus_m=(1.6, 1.6, 2.2), panel_lengths_m=(5.0, 3.5), panel_width_m: float = 1.8, panel_thickness_m: float = 0.04,
+             density_kg_m3: float = 300.0) -> Target:
     """Box-wing satellite: an MLI bus and two solar wings of unequal length along ±y.
 
     The unequal wings, and a wing hinge offset toward +z, make the body

@@ -121,7 +121,8 @@ def knn_outlier_mask(points, k: int = 8, n_sigma: float = 2.0) -> np.ndarray:
     return mean_d <= med + n_sigma * max(mad, 1e-12)
 
 
-def carve_mask(points, origins, *, margin_m: float = 0.15, step_m: float = 0.1, min_votes: int = 1, carve_fraction: float = 0.5, max_rays: int = 20000, rng: np.random.Generator | None = None) -> np.ndarray:
+def carve_mask(points, origins, *, margin_m: float = 0.15, step_m: float = 0.1, min_votes: int = 1, carve_fraction: float = 0.5, max_rays: int = 20000,
+               rng: np.random.Generator | None = None) -> np.ndarray:
     """True for points that survive Delaunay free-space carving (module docstring, step 2).
 
     Each ray from ``origins[i]`` to ``points[i]`` is sampled every ``step_m``

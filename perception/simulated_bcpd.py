@@ -67,7 +67,8 @@ class SimulatedBCPD:
         symmetry axis in the target frame; enables the random roll.
     """
 
-    def __init__(self, rng: np.random.Generator, *, position_sigma_m: float = 0.3, attitude_sigma_rad: float = np.deg2rad(2.0), scale_sigma: float = 0.02, outlier_probability: float = 0.05, symmetry_axis_T=None):
+    def __init__(self, rng: np.random.Generator, *, position_sigma_m: float = 0.3, attitude_sigma_rad: float = np.deg2rad(2.0), scale_sigma: float = 0.02,
+                 outlier_probability: float = 0.05, symmetry_axis_T=None):
         if not isinstance(rng, np.random.Generator):
             raise TypeError("rng must be a numpy.random.Generator")
         for name, v in (("position_sigma_m", position_sigma_m), ("attitude_sigma_rad", attitude_sigma_rad), ("scale_sigma", scale_sigma)):

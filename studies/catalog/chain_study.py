@@ -188,7 +188,8 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         rows.append(d)
     order = {a: i for i, a in enumerate(("none", "tuning", "init", "proxy"))}
     summ = pd.concat(rows, ignore_index=True)
-    summ = summ.sort_values(["experiment", "filter", "arm", "group"], key=lambda s: s.map(order) if s.name == "arm" else s.map(GROUPS.index) if s.name == "group" else s,
+    summ = summ.sort_values(["experiment", "filter", "arm", "group"],
+                            key=lambda s: s.map(order) if s.name == "arm" else s.map(GROUPS.index) if s.name == "group" else s,
                             kind="stable").reset_index(drop=True)
     summ["arm"] = summ["arm"].map(ARM_LABELS)
     cols = {"experiment": "experiment", "filter": "filter", "arm": "prior", "group": "group", "n_runs": "runs", "failed": "failed", "converged": "converged",
@@ -201,7 +202,8 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
              "the prior ω = rate × the scenario's true initial spin axis (assumed: a light curve gives no axis), 1-σ from the fit. "
              "Arms: no prior (general tuning, ω̂_0 = 0); prior: tuning (tuning_for_prior); prior: tuning + init (§6.2); "
              "prior: tuning + init + proxy (§6.3, with the fault window). Same measurements in every arm. State-based metrics of §6 "
-             "(RMSE units: q rad, w rad/s, r m, v m/s, k –); 'failed': runs in which the filter broke down numerically (counted as not converged, message in runs.parquet); 'converged': fraction of seeds converged; t statistics over converged seeds; "
+             "(RMSE units: q rad, w rad/s, r m, v m/s, k –); 'failed': runs in which the filter broke down numerically "
+             "(counted as not converged, message in runs.parquet); 'converged': fraction of seeds converged; t statistics over converged seeds; "
              f"mean with a Student-t interval, median with a BCa bootstrap interval ({pct}%). Filter-based metrics are in runs.parquet.")
     tables = [Table("summary", TITLE, summary, notes, default_format=".3g")]
 

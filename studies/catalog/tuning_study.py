@@ -212,10 +212,14 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
              "k is considered, not estimated, in one-axis scenarios (SC1, SC2).")
     plot_scores(sc_table, best, config, out_dir / "tuning_scores.png")
     return [
-        Table("summary", "Table 2 analogue: convergence time (s), KF_sc vs KF_gen, median over seeds", pd.concat(conv_parts, ignore_index=True), notes, default_format=".1f"),
-        Table("table3", "Table 3 analogue: steady-state RMSE (x1e-3), KF_sc vs KF_gen, median over seeds", pd.concat(ess_parts, ignore_index=True), notes, default_format=".3g"),
-        Table("chosen", f"Chosen Q_d per filter and scenario (G = {config['score_weight']:g} C_t + {1 - config['score_weight']:g} E_SS, normalised over the grid)",
-              chosen, "Lower G is better; C_t: time all tracked groups converged (run length if never); E_SS: mean over groups of RMSE / threshold.", default_format=".3g"),
+        Table("summary", "Table 2 analogue: convergence time (s), KF_sc vs KF_gen, median over seeds", pd.concat(conv_parts, ignore_index=True), notes,
+              default_format=".1f"),
+        Table("table3", "Table 3 analogue: steady-state RMSE (x1e-3), KF_sc vs KF_gen, median over seeds", pd.concat(ess_parts, ignore_index=True), notes,
+              default_format=".3g"),
+        Table("chosen",
+              f"Chosen Q_d per filter and scenario (G = {config['score_weight']:g} C_t + {1 - config['score_weight']:g} E_SS, normalised over the grid)",
+              chosen, "Lower G is better; C_t: time all tracked groups converged (run length if never); E_SS: mean over groups of RMSE / threshold.",
+              default_format=".3g"),
         Table("scores", "Algorithm 1 scores over the grid", sc_table, default_format=".3g"),
         Table("statistics", "Every metric of KF_sc and KF_gen: runs converged, mean with t interval, median with order-statistic interval",
               pd.concat(stats_parts, ignore_index=True), default_format=".4g"),
@@ -229,7 +233,8 @@ def plot_scores(sc_table: pd.DataFrame, best: pd.DataFrame, config, path: Path) 
     filters = list(dict.fromkeys(sc_table["filter"]))
     scen = list(config["scenarios"])
     n_pts = int(sc_table["q_index"].max()) + 1
-    fig, axes = plt.subplots(len(filters), 1, figsize=(max(6.0, 0.16 * n_pts + 2.5), 1.0 + 0.55 * len(scen) * len(filters) + 0.8), layout="constrained", squeeze=False)
+    fig, axes = plt.subplots(len(filters), 1, figsize=(max(6.0, 0.16 * n_pts + 2.5), 1.0 + 0.55 * len(scen) * len(filters) + 0.8), layout="constrained",
+                             squeeze=False)
     for ax, f in zip(axes[:, 0], filters):
         G = np.full((len(scen), n_pts), np.nan)
         for _, r in sc_table[sc_table["filter"] == f].iterrows():

@@ -56,8 +56,10 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
         """CoMBiNa relative navigation (Maestrini et al. §VI): writes metrics.json, states.parquet, combina.rrd."""
-        cfg = CombinaConfig(target=target, measurements=measurements, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior, prior_error=prior_error, axis_frame=axis_frame, quick=quick)
+        cfg = CombinaConfig(target=target, measurements=measurements, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior,
+                            prior_error=prior_error, axis_frame=axis_frame, quick=quick)
         m = run_command(cfg, out)
         c = m["components"]
         summary = ", ".join(f"{k}: {'ok' if v['converged'] else 'not converged'}" for k, v in c.items())
-        typer.echo(f"combina {cfg.target}/{cfg.measurements} seed {cfg.seed}: mode {m['mode']}, symmetry detected {m['symmetry_detected']}; {summary}; wrote {out}")
+        typer.echo(f"combina {cfg.target}/{cfg.measurements} seed {cfg.seed}: mode {m['mode']}, "
+                   f"symmetry detected {m['symmetry_detected']}; {summary}; wrote {out}")

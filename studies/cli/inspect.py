@@ -68,7 +68,8 @@ def format_study(out_dir: Path) -> str:
     if "run_id" not in runs.columns:
         raise v.InputError(f"{str(table)!r} has columns {v.plain(list(map(str, runs.columns)))} without 'run_id'; expected the runs table of `lcnav study`")
     done = is_complete(out_dir)
-    state = f"complete ({done.get('command')}, {done.get('finished_utc')})" if done else "INCOMPLETE: no .complete.json (killed or failed; re-run the study on it to resume)"
+    state = (f"complete ({done.get('command')}, {done.get('finished_utc')})" if done
+             else "INCOMPLETE: no .complete.json (killed or failed; re-run the study on it to resume)")
     lines = [f"study folder {out_dir}: {state}; {len(runs)} runs in runs.parquet; per run: {out_dir / 'runs'}/<run_id>/"]
     lines += [f"  {rid}" for rid in runs["run_id"]]
     summary = out_dir / "summary.md"

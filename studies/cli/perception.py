@@ -49,12 +49,15 @@ def _validate_frames(target: str):
 @perception_app.command("frames")
 def frames(
     target: str = typer.Option("box-wing", help="atlas-centaur, vespa, box-wing or sphere", callback=v.text()),
-    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m (5 to 1000)", callback=v.number(5, 1000, unit="m")),
+    range_m: float = typer.Option(40.0, "--range", help="distance from the left camera to the target's centre, m (5 to 1000)",
+                                  callback=v.number(5, 1000, unit="m")),
     seed: int = typer.Option(1, help="seed of the attitude, Sun direction and estimate errors", callback=v.seed()),
     out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
-    resolution: int = typer.Option(512, help="rendered image size, px (64 to 4096; Table 1's field of view at any size; 1024 = Table 1)", callback=v.count(64, 4096)),
+    resolution: int = typer.Option(512, help="rendered image size, px (64 to 4096; Table 1's field of view at any size; 1024 = Table 1)",
+                                   callback=v.count(64, 4096)),
     spp: int = typer.Option(16, help="samples per pixel (1 to 1024)", callback=v.count(1, 1024)),
-    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg (0 to 180)", callback=v.number(0, 180, unit="deg")),
+    estimate_error_deg: float = typer.Option(5.0, help="attitude error of the filter estimate fed to eq. 3, deg (0 to 180)",
+                                             callback=v.number(0, 180, unit="deg")),
     estimate_error_m: float = typer.Option(0.3, help="position error of the filter estimate fed to eq. 3, m (0 to 100)", callback=v.number(0, 100, unit="m")),
     rigid: bool = typer.Option(False, "--rigid", help="hold BCPD's scale at 1 (no scale gate)"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
@@ -64,7 +67,8 @@ def frames(
     from perception.stereo import luminance, tone_map
 
     frame, cloud, depth_true, model_T, C_CT, r_TC_C, meas, summary = frame_pipeline(
-        target, range_m, seed, resolution=resolution, spp=spp, estimate_error_deg=estimate_error_deg, estimate_error_m=estimate_error_m, estimate_scale=not rigid
+        target, range_m, seed, resolution=resolution, spp=spp, estimate_error_deg=estimate_error_deg, estimate_error_m=estimate_error_m,
+        estimate_scale=not rigid
     )
     reg = summary["registration"]
     err_frac = summary["median_depth_error_fraction"]
@@ -100,7 +104,8 @@ def frames(
             with atomic_path(stage / name) as tmp:
                 tmp.write_bytes(data)
         write_table(stage / "cloud.parquet", table, csv=True)
-        write_frame_recording(stage / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C, recording_id=f"perception-frames-{out.absolute().name}")
+        write_frame_recording(stage / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C,
+                              recording_id=f"perception-frames-{out.absolute().name}")
         write_json(stage / "summary.json", summary)
     if as_json:
         typer.echo(json.dumps(summary, indent=2))

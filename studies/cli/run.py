@@ -45,7 +45,8 @@ from studies.recording.navigation import record_navigation
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import RELATIVE_COLUMNS, Truth, simulate_truth
 
-ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
+ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m",
+               "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
 MEASUREMENT_COLUMNS = ["t_s", "q_TS_0", "q_TS_1", "q_TS_2", "q_TS_3", "r_ST_T_x_m", "r_ST_T_y_m", "r_ST_T_z_m"]
 
 
@@ -149,9 +150,12 @@ def run(
     duration: float = typer.Option(300.0, help="Simulated time, s (at most 1e5 filter steps).", callback=v.number(0, 1e6, lo_open=True, unit="s")),
     dt: float = typer.Option(1.0, help="Sampling time tau_s of the filter and the pose estimator, s.", callback=v.number(0, 600, lo_open=True, unit="s")),
     prior: str = typer.Option("none", help="Spin prior use: none|init|proxy (proxy also initialises).", callback=v.text(PRIOR_USES)),
-    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (Renis et al. §5.3).", callback=v.number(0, 10, lo_open=True)),
-    prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error).", callback=v.text()),
-    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis.", callback=v.path_text()),
+    prior_error: float = typer.Option(0.05, help="Prior rate error as a fraction of the true rate (Renis et al. §5.3).",
+                                      callback=v.number(0, 10, lo_open=True)),
+    prior_rate_deg_s: Optional[str] = typer.Option(None, help="Prior rate 'wx,wy,wz' in deg/s (target frame); default: truth x (1 + prior-error).",
+                                                   callback=v.text()),
+    prior_json: Optional[Path] = typer.Option(None, help="Prior from `lcnav lightcurve prior --json` (rate_rad_s, rate_sigma_rad_s) about --prior-axis.",
+                                              callback=v.path_text()),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
     tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'.", callback=v.text(TUNINGS)),
@@ -159,13 +163,19 @@ def run(
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
     runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),
     seed: int = typer.Option(1, help="Seed of the first run.", callback=v.seed(v.MAX_SEED - MAX_RUNS)),
-    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).", callback=v.text(NOISE_MODELS)),
-    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).", callback=v.number(0, 3.15, lo_open=True, unit="rad")),
-    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).", callback=v.number(0, 1e3, lo_open=True, unit="m")),
+    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).",
+                              callback=v.text(NOISE_MODELS)),
+    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).",
+                                      callback=v.number(0, 3.15, lo_open=True, unit="rad")),
+    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).",
+                                    callback=v.number(0, 1e3, lo_open=True, unit="m")),
     gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates).", callback=v.number(0, 1, hi_open=True)),
     gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before).", callback=v.number(0, 1e6, unit="s")),
-    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters).", callback=v.count(0, 10**4)),
-    measurements: Optional[Path] = typer.Option(None, help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.", callback=v.path_text()),
+    reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters).",
+                                         callback=v.count(0, 10**4)),
+    measurements: Optional[Path] = typer.Option(None,
+                                                help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.",
+                                                callback=v.path_text()),
     out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""

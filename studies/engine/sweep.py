@@ -155,7 +155,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
         except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}); expected a running scheduler at that address") from None
+            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}); "
+                             "expected a running scheduler at that address") from None
         with client:
             yield client
         return

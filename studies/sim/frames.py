@@ -20,7 +20,8 @@ def random_rotation(rng: np.random.Generator, max_deg: float) -> np.ndarray:
     return quat_to_dcm(rotvec_to_quat(np.deg2rad(rng.uniform(0.0, max_deg)) * axis))
 
 
-def registration_trial(target, model_T: np.ndarray, rng: np.random.Generator, *, n_measured: int = 1000, noise_m: float = 0.01, outliers: float = 0.1, max_rot_deg: float = 20.0, max_offset_m: float = 0.3):
+def registration_trial(target, model_T: np.ndarray, rng: np.random.Generator, *, n_measured: int = 1000, noise_m: float = 0.01, outliers: float = 0.1,
+                       max_rot_deg: float = 20.0, max_offset_m: float = 0.3):
     """One synthetic registration problem: ``(measured, R_true, t_true)`` with ``model ≈ R_true measured + t_true``.
 
     The measured points are fresh surface samples facing a random viewing
@@ -44,7 +45,8 @@ def registration_trial(target, model_T: np.ndarray, rng: np.random.Generator, *,
     return (meas_T - t_true) @ R_true, R_true, t_true
 
 
-def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 512, spp: int = 16, estimate_error_deg: float = 5.0, estimate_error_m: float = 0.3, estimate_scale: bool = True, gamma: float = 0.1):
+def frame_pipeline(target: str, range_m: float, seed: int, *, resolution: int = 512, spp: int = 16, estimate_error_deg: float = 5.0,
+                   estimate_error_m: float = 0.3, estimate_scale: bool = True, gamma: float = 0.1):
     """Render one stereo frame, build its cloud and register it (eqs 3–8); nothing is written.
 
     The attitude, Sun direction (from the camera's side) and the estimate's

@@ -99,7 +99,8 @@ ECSV = _ecsv_text()
 
 
 @SETTINGS
-@given(edits=st.lists(st.tuples(st.integers(0, len(ECSV) - 1), st.integers(0, 20), st.sampled_from(["", "x", "nan", "-", "\n", "0x10", " ", "string", "1e999", "#"])),
+@given(edits=st.lists(st.tuples(st.integers(0, len(ECSV) - 1), st.integers(0, 20),
+                                st.sampled_from(["", "x", "nan", "-", "\n", "0x10", " ", "string", "1e999", "#"])),
                       min_size=1, max_size=4))
 def test_ecsv_mutations_usable_or_badseries(tmp_path, edits):
     text = ECSV

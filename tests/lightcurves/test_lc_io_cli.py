@@ -67,7 +67,8 @@ def test_prior_command_json(tmp_path, capsys):
 def test_render_command_writes_ecsv_and_recording(tmp_path, capsys):
 
     out, rrd = tmp_path / "s.ecsv", tmp_path / "s.rrd"
-    argv = ["lightcurve", "render", "--target", "sphere", "--albedo", "0.3", "--axis", "0,0,1", "--rate-deg-s", "5", "--duration", "40", "--cadence", "1", "--seed", "2", "--out", str(out), "--record", str(rrd), "--variant", "scalar_rgb", "--resolution", "16"]
+    argv = ["lightcurve", "render", "--target", "sphere", "--albedo", "0.3", "--axis", "0,0,1", "--rate-deg-s", "5", "--duration", "40", "--cadence", "1",
+            "--seed", "2", "--out", str(out), "--record", str(rrd), "--variant", "scalar_rgb", "--resolution", "16"]
     assert main(argv) == 0
     lc = read_lightcurve(out)
     assert len(lc) >= 20 and lc.meta["seed"] == 2 and lc.meta["renderer"]["variant"] == "scalar_rgb"

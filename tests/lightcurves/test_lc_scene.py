@@ -27,7 +27,9 @@ def _dir(theta, phi):
 GEOMETRIES = [(0.3, 0.3, np.pi), (0.5, 0.2, np.pi), (0.2, 0.7, 0.5), (0.0, 0.0, 0.0), (1.0, 0.4, 2.0), (1.2, 1.1, np.pi), (1.3, 0.2, 0.0)]
 
 
-@pytest.mark.parametrize("material", [Material("diffuse", 0.6), Material("paint", 0.3, 0.6, roughness=0.2, eta=1.5), Material("metal", 0.1, 0.85, roughness=0.5, eta=1.1, k=6.8)], ids=lambda m: m.name)
+@pytest.mark.parametrize("material",
+                         [Material("diffuse", 0.6), Material("paint", 0.3, 0.6, roughness=0.2, eta=1.5),
+                          Material("metal", 0.1, 0.85, roughness=0.5, eta=1.1, k=6.8)], ids=lambda m: m.name)
 def test_flat_cook_torrance_plate_matches_closed_form(variant, material):
     """Radiance of a sunlit plate = E cos θ_i f(ω_i, ω_o): within 2 % for diffuse and specular geometries."""
     import mitsuba as mi
@@ -69,7 +71,8 @@ def test_posing_rewrites_vertices_without_reloading(variant):
     import mitsuba as mi
 
     t = get_target("atlas-centaur", n_seg=24)
-    sc = mi.load_dict(S.scene_dict(t, [0, 0, 1], sensors={"cam": _ortho(S.look_at_matrix([0, 0, 20], [0, 0, 0], [0, 1, 0]) @ np.diag([7, 7, 1, 1]), res=16, spp=2)}))
+    sc = mi.load_dict(S.scene_dict(t, [0, 0, 1],
+                                   sensors={"cam": _ortho(S.look_at_matrix([0, 0, 20], [0, 0, 0], [0, 1, 0]) @ np.diag([7, 7, 1, 1]), res=16, spp=2)}))
     poser = S.ScenePoser(sc, t)
     broadside = float(np.array(mi.render(sc, seed=1)).mean())
     poser.set_target_pose(np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]]), [0, 0, 0])  # long axis y -> z
@@ -89,7 +92,8 @@ def test_user_obj_mesh_loads_with_part_materials(tmp_path, variant):
     np.testing.assert_allclose(t.J_diag, 6.0 / 12 * np.array([2, 5, 5]), rtol=1e-6)
     ply = tmp_path / "fin.ply"
     V2, F2 = _box([2, 0, 0], [2.5, 1, 1])  # a second closed solid beside the first
-    header = f"ply\nformat ascii 1.0\nelement vertex {len(V2)}\nproperty float x\nproperty float y\nproperty float z\nelement face {len(F2)}\nproperty list uchar int vertex_indices\nend_header\n"
+    header = (f"ply\nformat ascii 1.0\nelement vertex {len(V2)}\nproperty float x\nproperty float y\nproperty float z\n"
+              f"element face {len(F2)}\nproperty list uchar int vertex_indices\nend_header\n")
     ply.write_text(header + "".join(f"{x} {y} {z}\n" for x, y, z in V2) + "".join(f"3 {a} {b} {c}\n" for a, b, c in F2))
     two = load_mesh_target({"hull": (obj, Material("grey", 0.4)), "fin": (ply, Material("white", 0.8))}, density_kg_m3=1.0)
     assert [p.name for p in two.parts] == ["hull", "fin"] and two.part("fin").material.diffuse_albedo == 0.8

@@ -28,7 +28,8 @@ def test_rendered_light_curve_gives_the_spin_rate(variant, case):
     name, axis, rate_deg_s, duration, cadence, tol = CASES[case]
     target = get_target(name, n_seg=32)
     renderer = UnresolvedRenderer(target, resolution=32, spp=4, variant=variant)
-    sim = simulate_lightcurve(target, axis_T=axis, rate_rad_s=np.radians(rate_deg_s), duration_s=duration, cadence_s=cadence, rng=np.random.default_rng(1), renderer=renderer)
+    sim = simulate_lightcurve(target, axis_T=axis, rate_rad_s=np.radians(rate_deg_s), duration_s=duration, cadence_s=cadence, rng=np.random.default_rng(1),
+                              renderer=renderer)
     lc = sim.lightcurve
     assert len(lc) > 0.8 * duration / cadence  # gaps and jitter, but mostly there
     assert np.all(np.isfinite(lc.mag_err)) and np.median(lc.mag_err) < 0.1

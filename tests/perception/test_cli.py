@@ -13,7 +13,8 @@ from tests.rerun_cli import assert_rrd_verifies
 
 def test_frames_writes_images_cloud_recording_and_json(tmp_path, capsys):
     out = tmp_path / "f"
-    code = main(["perception", "frames", "--target", "box-wing", "--range", "40", "--seed", "1", "--out", str(out), "--resolution", "256", "--spp", "8", "--json"])
+    code = main(["perception", "frames", "--target", "box-wing", "--range", "40", "--seed", "1", "--out", str(out), "--resolution", "256", "--spp", "8",
+                 "--json"])
     assert code == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["points"] > 30

@@ -123,7 +123,8 @@ def test_nul_bytes(tmp_path, capsys):
 
 
 def test_rate_1e308_is_refused(tmp_path, capsys):
-    one_error(capsys, ["lightcurve", "render", "--rate-deg-s", "1e308", "--out", tmp_path / "lc.ecsv"], "--rate-deg-s 1e+308: expected a finite number within (0, 360] deg/s")
+    one_error(capsys, ["lightcurve", "render", "--rate-deg-s", "1e308", "--out", tmp_path / "lc.ecsv"],
+              "--rate-deg-s 1e+308: expected a finite number within (0, 360] deg/s")
 
 
 def test_combina_rate_1e6_is_refused_at_once(tmp_path, capsys):
@@ -163,9 +164,11 @@ def test_run_option_bounds(tmp_path, capsys, flag, value, needle):
 @pytest.mark.parametrize("content, needle", [
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n", "holds 0 row(s); expected at least 2 measurements"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,\n", "row 1 has a NaN, Inf or empty cell"),
-    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,0x10\n", "column r_ST_T_z_m holds '0x10'; expected decimal numbers"),
+    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,0x10\n",
+     "column r_ST_T_z_m holds '0x10'; expected decimal numbers"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n5,1,0,0,0,1,2,3\n5,1,0,0,0,1,2,3\n", "expected strictly increasing times"),
-    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n500,1,0,0,0,1,2,3\n501,1,0,0,0,1,2,3\n", "expected measurements within the run, 0 to 30 s"),
+    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n500,1,0,0,0,1,2,3\n501,1,0,0,0,1,2,3\n",
+     "expected measurements within the run, 0 to 30 s"),
 ])
 def test_measurements_file_is_checked(tmp_path, capsys, content, needle):
     path = tmp_path / "m.csv"
