@@ -43,6 +43,7 @@ from estimators.error_state import attitude_error, boxminus, boxplus
 from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.process_model import RelativeProcessModel
+from estimators.state import DR_ST_T, DTHETA, K_STATES, Q_TS, R_ST_T
 from estimators.tuning import get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.sim.metrics import fraction_in_band, nees
@@ -65,7 +66,7 @@ def _runs(tr, scenario, name, first_seed=1000):
     model = RelativeProcessModel(tr.J_S_diag)
     F = [model.propagate_with_jacobian(tr.x[k], tr.servicer[k], 1.0)[1][:n, :n] for k in range(steps)]
     H = np.zeros((6, n))
-    H[:3, :3] = H[3:, 6:9] = np.eye(3)
+    H[:3, DTHETA] = H[3:, DR_ST_T] = np.eye(3)
     R = np.zeros((6, 6))
     R[:3, :3], R[3:, 3:] = NOISE.R_attitude, NOISE.R_position
     P = np.diag(SIGMA_0[:n] ** 2)
@@ -82,10 +83,10 @@ def _runs(tr, scenario, name, first_seed=1000):
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=NOISE.sigma_q_rad, sigma_r_m=NOISE.sigma_r_m, noise=NOISE.model)
         run = run_navigation(
             name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T,
-            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, pose_noise=NOISE, gate_confidence=None, consider=(12, 13) if one_axis else (),
+            x0=x0, P0=np.diag(SIGMA_0**2), tuning=tun, pose_noise=NOISE, gate_confidence=None, consider=K_STATES if one_axis else (),
         )
         E_filter.append(nees(run.x, run.P, tr.x, np.arange(n))[1:])
-        noise = np.hstack([attitude_error(m.q_TS, tr.x[1:, 0:4]), m.r_ST_T - tr.x[1:, 7:10]])
+        noise = np.hstack([attitude_error(m.q_TS, tr.x[1:, Q_TS]), m.r_ST_T - tr.x[1:, R_ST_T]])
         e, e_hat, E = boxminus(tr.x[0], x0)[:n], np.zeros(n), np.empty(steps)
         for k in range(steps):
             e, e_hat = F[k] @ e, F[k] @ e_hat
