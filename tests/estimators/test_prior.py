@@ -41,7 +41,7 @@ def test_prior_from_a_light_curve_rate():
         prior_from_rate(0.05, 0.002, axis_T=(0.0, 0.0, 0.0))
 
 
-@pytest.mark.parametrize("name,expected", [("SC1", "sc1"), ("SC2", "sc2"), ("SC3", "sc3"), ("SC4", "sc4")])
+@pytest.mark.parametrize("name,expected", [("SC1", "sc1-settled"), ("SC2", "sc2-settled"), ("SC3", "sc3-settled"), ("SC4", "sc4-settled")])
 def test_tuning_by_name_from_the_prior(name, expected):
     prior = SpinPrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
     assert tuning_for_prior(prior) == expected
