@@ -172,14 +172,15 @@ def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name)
         assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
 
 
-def _assert_not_overconfident(r):
-    """Mean NEES/dof under the upper 95 % bound of a 30-run mean (the time average only narrows it), not below 0.6;
+def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
+    """Mean NEES/dof under the upper 95 % bound of a 30-run mean (the time average only narrows it), not below
+    ``lowest_nees_per_dof``;
     mean NIS/dof under the upper 95 % bound of all the innovations after the settling time (3 dof each, white for a
     consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
     from scipy.stats import chi2
 
     n = r["runs"] * r["dof"]
-    assert 0.6 <= r["nees_per_dof"] <= chi2.ppf(0.975, n) / n
+    assert lowest_nees_per_dof <= r["nees_per_dof"] <= chi2.ppf(0.975, n) / n
     n_nis = 3 * r["runs"] * int(r["duration_s"] - r["settling_s"])  # one measurement per second
     for s in ("attitude", "position"):
         assert r[f"nis_{s}_per_dof"] <= chi2.ppf(0.975, n_nis) / n_nis
@@ -208,3 +209,18 @@ def test_settled_tuning_ekf_sc3_from_the_default_p0(default_p0_runs):
     r = default_p0_runs("SC3", "ekf", "settled")
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
     _assert_not_overconfident(r)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["ekf", "ukf"])
+def test_prior_chosen_tuning_is_conservative_not_overconfident(default_p0_runs, name):
+    """``sc3-settled`` (what a spin prior of a slow two-axis tumble selects, Renis et al. study 1) from the default ``P_0``.
+
+    The paper's ``sc3`` without a settling phase is over-confident: mean NEES/dof 4.7 (EKF) and 3.5 (UKF), worst run
+    60-88, attitude gate rejections 3.6 % (300 s, ``python -m benchmarks consistency``). With it: 0.57 and 0.54,
+    worst run 1.3 and 0.96, rejections 0.9 %. Conservative on purpose (its ``Q_d`` stands for unmodelled
+    torques the truth does not have), so only the upper side is tested, and a floor that says "not absurdly".
+    """
+    r = default_p0_runs("SC3", name, "sc3-settled")
+    print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    _assert_not_overconfident(r, lowest_nees_per_dof=0.3)

@@ -62,7 +62,7 @@ def test_light_curve_prior_makes_the_body_rate_prior(rng):
         noise.body_rate_prior()
 
 
-@pytest.mark.parametrize("name,expected", [("SC1", "sc1"), ("SC2", "sc2"), ("SC3", "sc3"), ("SC4", "sc4")])
+@pytest.mark.parametrize("name,expected", [("SC1", "sc1-settled"), ("SC2", "sc2-settled"), ("SC3", "sc3-settled"), ("SC4", "sc4-settled")])
 def test_tuning_by_name_from_the_prior(name, expected):
     prior = BodyRatePrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
     assert tuning_for_prior(prior) == expected
