@@ -55,7 +55,7 @@ def test_light_curve_prior_makes_the_body_rate_prior(rng):
     p = lc.body_rate_prior(axis, source="test curve")
     np.testing.assert_allclose(p.w_T_T_rad_s, lc.rate_rad_s * axis / np.linalg.norm(axis), rtol=1e-15)
     np.testing.assert_array_equal(p.sigma_rad_s, np.full(3, lc.rate_sigma_rad_s))
-    assert p.source == "test curve" and tuning_for_prior(p) == "sc3"  # slow, two axes
+    assert p.source == "test curve" and tuning_for_prior(p) == "sc3-settled"  # slow, two axes
     noise = extract_spin_prior(t, rng.normal(0.0, 0.02, t.size), np.full(t.size, 0.02))
     assert not noise.significant
     with pytest.raises(ValueError, match="no rate"):
