@@ -81,6 +81,10 @@ class KalmanFilterBase:
         tumbles, where the inertia ratios do not affect the motion and are not
         estimated (§6.1 of Renis et al.); an EKF that estimates them there learns
         them from its own linearisation errors and becomes overconfident.
+        The attribute ``consider_directions`` ((d, n_error), orthonormal rows) considers
+        directions of the error space besides the axes, e.g. one combination of
+        ``k1, k2`` (:func:`estimators.navigation.weak_inertia_direction`); the gain is
+        then projected, ``K ← (I − Uᵀ U) K`` with ``U`` spanning both.
 
     Examples
     --------
@@ -131,6 +135,7 @@ class KalmanFilterBase:
         self.consider = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
         if self.consider.size and (self.consider.min() < 0 or self.consider.max() >= m):
             raise ValueError(f"consider indices must lie in [0, {m}), got {consider!r}")
+        self.consider_directions = np.zeros((0, m))
         self.y = np.zeros(0)
         self.S = np.zeros((0, 0))
         self.innovations: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -198,12 +203,22 @@ class KalmanFilterBase:
         y = self.model.boxminus(np.asarray(x_fix, dtype=float), self.x)[idx]
         PHt = self.P[:, idx]
         K = np.linalg.solve(self.P[np.ix_(idx, idx)] + C, PHt.T).T
-        K[self.consider] = 0.0
+        U = self.consider_basis()
+        K -= U.T @ (U @ K)
         IKH = np.eye(self.P.shape[0])
         IKH[:, idx] -= K
         self._commit(self.model.boxplus(self.x, K @ y), IKH @ self.P @ IKH.T + K @ C @ K.T, "re-acquisition fix")
 
     # -------------------------------------------------------------- helpers
+
+    def consider_basis(self) -> np.ndarray:
+        """Orthonormal rows ``U`` spanning the considered error space: the ``consider`` axes and ``consider_directions``."""
+        m = self.P.shape[0]
+        axes = np.eye(m)[self.consider]
+        if not len(self.consider_directions):
+            return axes
+        U = np.vstack([axes, np.asarray(self.consider_directions, dtype=float).reshape(-1, m)])
+        return np.ascontiguousarray(np.linalg.qr(U.T)[0].T)  # Gram-Schmidt of the rows
 
     def _commit(self, x: np.ndarray, P: np.ndarray, what: str) -> None:
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P))):

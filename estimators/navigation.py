@@ -19,7 +19,7 @@ from estimators.measurement import PoseNoise
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, rate_proxy
 from estimators.process_model import RelativeProcessModel
 from estimators.reacquisition import Reacquisition
-from estimators.state import DK, N_ABSOLUTE, N_ERROR, N_STATE
+from estimators.state import DK, DW_ST_T, N_ABSOLUTE, N_ERROR, N_STATE
 from estimators.tuning import Tuning
 from estimators.ukf import UnscentedKalmanFilter
 
@@ -116,11 +116,15 @@ def run_navigation(
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
-    settle_consider = np.union1d(consider, np.arange(N_ERROR)[DK]).astype(int)
+    k_axes = np.arange(N_ERROR)[DK]
+    settle_consider = np.union1d(consider, k_axes).astype(int)
+    no_directions = np.zeros((0, N_ERROR))
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
             settling = t[k - 1] - t[0] < tuning.settling_s
             _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
+            releasing = not settling and t[k - 1] - t[0] < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
+            filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau) if releasing else no_directions
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
@@ -182,6 +186,26 @@ def _set_settling(filt, tuning: Tuning, tau: float, settling: bool, consider) ->
     filt.consider = consider
     if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
         filt.linearization_covariance = settling
+
+
+def weak_inertia_direction(model: RelativeProcessModel, x, servicer_state, tau: float) -> np.ndarray:
+    """The combination of ``δk1, δk2`` that moves the rate least over one step, as a (1, 14) error-space row.
+
+    The right singular vector of the smaller singular value of ``∂ω(t + τ)/∂k``
+    (the ``δω``–``δk`` block of the step's Jacobian ``F``). On SC3 (``A ≈ C``)
+    ``ω̇_y = (C − A)/B ω_x ω_z`` fixes ``k1 + k2`` within seconds, while
+    ``k1 − k2`` acts through ``ω_y``, which is itself about zero and, at the end
+    of the settling phase, known only to ~0.004 rad/s; both filters then
+    "learnt" ``k1 − k2`` from a gradient of the wrong size and sign and ended
+    several σ off (measured: issue 12, ``benchmarks/RESULTS.md``). Considering
+    this combination for the tuning's ``release_s`` after the settling phase lets
+    the well-observed one converge first.
+    """
+    _, F = model.propagate_with_jacobian(np.asarray(x, dtype=float), servicer_state, tau)
+    v = np.linalg.svd(F[DW_ST_T, DK])[2][-1]
+    u = np.zeros((1, N_ERROR))
+    u[0, DK] = v
+    return u
 
 
 def _record_camera_sources(filt, decisions, k: int, nis: dict, accepted: dict) -> None:

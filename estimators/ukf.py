@@ -103,8 +103,9 @@ class UnscentedKalmanFilter(KalmanFilterBase):
             K = np.linalg.solve(S, Pxy.T).T  # K = P_xy P_yy⁻¹ (P_yy symmetric)
         except np.linalg.LinAlgError as e:
             raise ValueError("ukf: innovation covariance P_yy is singular") from e
-        if self.consider.size:
-            K[self.consider] = 0.0  # Schmidt-Kalman: P⁻ − K Pxyᵀ − Pxy Kᵀ + K S Kᵀ holds for any gain
+        U = self.consider_basis()
+        if U.shape[0]:
+            K = K - U.T @ (U @ K)  # Schmidt-Kalman: P⁻ − K Pxyᵀ − Pxy Kᵀ + K S Kᵀ holds for any gain
             P = self.P - K @ Pxy.T - Pxy @ K.T + K @ S @ K.T
         else:
             P = self.P - K @ S @ K.T
