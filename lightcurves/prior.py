@@ -65,7 +65,7 @@ import numpy as np
 from astropy.timeseries import LombScargle
 from astropy.timeseries.periodograms.lombscargle.implementations.utils import trig_sum
 from scipy import stats
-from scipy.optimize import least_squares, minimize_scalar
+from scipy.optimize import least_squares
 
 from lightcurves.clean import WindowCleanResult, window_clean
 from lightcurves.clean_implementations.fast import window as spectral_window
@@ -82,8 +82,10 @@ _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
 _TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
-_NUFFT_OVERSAMPLING = 3  #: astropy extirpolation grid (default 5): half the FFT length, same peaks and classifications (seeds 1, 2)
-_FAST = {"trig_sum_kwds": {"oversampling": _NUFFT_OVERSAMPLING}}
+_NUFFT_OVERSAMPLING = 3  #: extirpolation grid of the red-noise spectrum's trig_sum (astropy's default 5): half the FFT length
+#: astropy ≥ 7 computes the fast periodogram by a low-rank NUFFT to 5e-13; 1e-7 is accurate beyond any use here (measured:
+#: largest power error 3e-7 of the maximum on benchmark curves) and halves the time of a survey periodogram (264 -> 142 ms)
+_FAST = {"trig_sum_kwds": {"eps": 1e-7}}
 _BATCH = 400_000  #: complex numbers per batch of the harmonic fits (memory bound)
 _OUTLIER_Z = 3.5  #: samples this many robust σ from the best-ranked fit are left out (Gaussian noise: 5e-4 of them)
 _ODD_ALPHA = 1e-2  #: F-test level at which the odd harmonics of f/2 make f/2 the fundamental
@@ -252,32 +254,30 @@ def _correlation_fit(t: np.ndarray, r: np.ndarray) -> tuple[float, float]:
     Correlation is accepted when it lowers Σ n_b ρ_b² (χ² of "white", n_b pairs per bin) by more than 20.
     """
     T = t[-1] - t[0]
-    lags, prods = [], []
-    for k in range(1, min(t.size, 201)):
-        d = t[k:] - t[:-k]
-        if d.min() > 0.25 * T:
-            break
-        lags.append(d)
-        prods.append(r[k:] * r[:-k])
-    d, p = np.concatenate(lags), np.concatenate(prods)
+    L = min(t.size - 1, 200)
+    # all pairs (i, i + k), k ≤ L, as an (N, L) table: times padded with +inf (dropped below), residuals with 0
+    tp = np.concatenate([t, np.full(L, np.inf)])
+    rp = np.concatenate([r, np.zeros(L)])
+    D = np.lib.stride_tricks.sliding_window_view(tp, L + 1)[: t.size]
+    R = np.lib.stride_tricks.sliding_window_view(rp, L + 1)[: t.size]
+    d = D[:, 1:] - D[:, :1]
     keep = d <= 0.25 * T
-    d, p = d[keep], p[keep] / np.mean(r**2)
-    edges = np.geomspace(d.min() * (1 - 1e-9), d.max() * (1 + 1e-9), 26)
-    b = np.clip(np.searchsorted(edges, d) - 1, 0, 24)
-    nb = np.bincount(b, minlength=25).astype(float)
+    d, p = d[keep], R[:, 1:][keep] * np.broadcast_to(R[:, :1], keep.shape)[keep] / np.mean(r**2)
+    # 25 log-spaced bins from the shortest to the longest lag (the index by logarithm: a third of a sorted search's time)
+    lo, hi = np.log(d.min() * (1 - 1e-9)), np.log(d.max() * (1 + 1e-9))
+    b = np.clip((25.0 * (np.log(d) - lo) / (hi - lo)).astype(int), 0, 24)
+    nb = np.bincount(b, np.ones_like(d), minlength=25)  # weighted: numpy's unweighted count is several times slower here
     ok = nb > 0
     rho = np.bincount(b, p, minlength=25)[ok] / nb[ok]
     lag = np.bincount(b, d, minlength=25)[ok] / nb[ok]
     nb = nb[ok]
-    best = (np.sum(nb * rho**2), 0.0, 0.0)
-    for tau in np.geomspace(0.3 * d.min(), T, 60):
-        e = np.exp(-lag / tau)
-        a = float(np.clip(np.sum(nb * e * rho) / np.sum(nb * e * e), 0.0, 1.0))
-        sse = float(np.sum(nb * (rho - a * e) ** 2))
-        if sse < best[0]:
-            best = (sse, a, float(tau))
+    taus = np.geomspace(0.3 * d.min(), T, 60)
+    E = np.exp(-lag[None, :] / taus[:, None])  # (τ grid, bin)
+    a = np.clip((E * nb * rho).sum(axis=1) / (E * E * nb).sum(axis=1), 0.0, 1.0)
+    sse = (nb * (rho - a[:, None] * E) ** 2).sum(axis=1)
+    i = int(np.argmin(sse))
     white = float(np.sum(nb * rho**2))
-    return (best[1], best[2]) if white - best[0] > 20.0 and best[1] > 0 else (0.0, 0.0)
+    return (float(a[i]), float(taus[i])) if white - sse[i] > 20.0 and a[i] > 0 else (0.0, 0.0)
 
 
 def _ou_quadratic(t: np.ndarray, u: np.ndarray, a: float, tau: float) -> float:
@@ -367,6 +367,14 @@ def _regular_nyquist(t: np.ndarray) -> float | None:
     return float(0.5 / d.min()) if np.all(np.abs(q - np.rint(q)) < 1e-3) else None
 
 
+def _vertex(x: float, h: float, c: np.ndarray) -> tuple[float, bool]:
+    """``(abscissa, inside)``: the minimum of the parabola through ``(x − h, c0), (x, c1), (x + h, c2)`` kept within
+    ``x ± h``, and whether it lies strictly inside (the lowest end when the parabola has no minimum)."""
+    den = c[0] - 2.0 * c[1] + c[2]
+    step = float(np.clip(0.5 * (c[0] - c[2]) / den, -1.0, 1.0)) if den > 0.0 else float(int(np.argmin(c)) - 1)
+    return x + h * step, abs(step) < 1.0
+
+
 def _is_harmonic(f: float, f0: float, T: float) -> bool:
     """``f ≈ k f0`` for a whole ``k ≥ 1``, within half a resolution element ``1/T``."""
     k = int(np.rint(f / f0))
@@ -430,9 +438,20 @@ class _Series:
         return _harmonic_chi2(self.tc, self.V, self.y, self.W, freqs, K)
 
     def refine(self, f0: float, K: int, half_width: float) -> float:
-        """The frequency minimising ``χ²_K`` within ``f0 ± half_width``."""
-        res = minimize_scalar(lambda f: self.chi2([f], K)[0, -1], bounds=(f0 - half_width, f0 + half_width), method="bounded", options={"xatol": 1e-5 / self.T})
-        return float(res.x)
+        """The frequency minimising ``χ²_K`` within ``f0 ± half_width``: the best of 9 points, then the vertices of
+        parabolas through stencils 8 and 64 times narrower. Three or so batched evaluations (15 frequencies) instead of
+        the 12–20 single ones of a bounded Brent search (the stencil walks on while the minimum lies beyond it)."""
+        f = np.linspace(f0 - half_width, f0 + half_width, 9)
+        c = self.chi2(f, K)[:, -1]
+        i = int(np.clip(np.argmin(c), 1, 7))
+        h = f[1] - f[0]
+        x = _vertex(f[i], h, c[i - 1 : i + 2])[0]
+        for h in (h / 8, h / 64):
+            for _ in range(4):  # the stencil walks while the minimum lies beyond it
+                x, inside = _vertex(x, h, self.chi2([x - h, x, x + h], K)[:, -1])
+                if inside:
+                    break
+        return float(np.clip(x, f0 - half_width, f0 + half_width))
 
     def without(self, drop: np.ndarray) -> _Series:
         """The same series without the samples flagged in ``drop`` (the periodogram is kept)."""
@@ -587,7 +606,7 @@ def _rank(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, f
     if drop.any() and s.n - drop.sum() >= 4 * k1 + 6:
         s = s.without(drop)
         s2 = float(s.chi2([f1], k1)[0, -1]) / (s.n - 2 * k1 - 4)
-        f1 = s.refine(f1, k1, 0.02 / s.T)
+        f1 = s.refine(f1, k1, 0.1 / s.T)  # outliers can move the optimum by a good part of a resolution element
     fin = _finalists(s, [(f1, k1, True), *starts[1:]], s2, max_harmonics)
     bic_best, f_fit, K = fin[0]
     others = [b for b, f, _ in fin[1:] if abs(f - f_fit) > 0.5 / s.T]  # a runner-up is a different frequency, not the same peak refined
