@@ -617,15 +617,18 @@ def _rank(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, f
 def _odd_harmonic_test(s: _Series, f: float, K: int, max_harmonics: int) -> tuple[float, int, float] | None:
     """Step 4d, P against 2P: ``(f/2 refined, its K, p)`` where ``p`` is the F-test probability that the first odd
     harmonics of ``f/2`` (1 and 3 — absent from a curve whose fundamental is ``f``, the largest ones for two unequal
-    minima or maxima) reduce ``χ²`` of the ``K``-harmonic fit at ``f`` this much by chance:
-    ``F = (Δχ²/q)/(χ²/(N − p))``, ``q`` = 2 per odd harmonic, ``F(q, N − p)`` under "the fundamental is f" with white
-    residuals. BIC alone charges ``ln N`` per parameter and kept eclipsing binaries with nearly equal minima at
-    ``2 f_true``. None when ``f/2`` has too few cycles or too few samples are left for the test. The caller runs it
-    only when the residuals at ``f`` are white (:func:`_correlation_fit`).
+    minima or maxima) reduce ``χ²`` of a fit at ``f`` this much by chance: ``F = (Δχ²/q)/(χ²/(N − p))``, ``q`` = 2 per
+    odd harmonic, ``F(q, N − p)`` under "the fundamental is f" with white residuals. The fit at ``f`` has ``2K``
+    harmonics (as many as allowed), not the BIC's ``K``: the shape the ``K`` harmonics miss (narrow eclipses) would
+    otherwise leak into the odd terms — on 40 sparse eclipsing curves (80 points, 3 seasons), with ``K`` 1 of the
+    30 whose period was right had ``p`` < 0.01, with ``2K`` none (smallest 0.075), while 5 of the 10 found at
+    ``2 f_true`` had ``p`` < 0.01. BIC alone charges ``ln N`` per parameter and kept eclipsing binaries with nearly
+    equal minima at ``2 f_true``. None when ``f/2`` has too few cycles or too few samples are left for the test.
+    The caller runs it only when the residuals at ``f`` are white (:func:`_correlation_fit`).
     """
     g = 0.5 * f
     odd = [k for k in (1, 3) if k * g <= s.nu_max]
-    X0 = _design(s.tc, s.V, f, K)
+    X0 = _design(s.tc, s.V, f, min(2 * K, _harmonics_allowed(s, f, max_harmonics)))
     X1 = np.concatenate([X0, *(np.column_stack([np.cos(2 * np.pi * k * g * s.tc), np.sin(2 * np.pi * k * g * s.tc)]) for k in odd)], axis=1)
     dof = s.n - X1.shape[1] - 1
     if dof < 4 or g * s.T < 2.0:
@@ -818,6 +821,24 @@ def extract_spin_prior(
         directions are not given.
     clean_options : passed to :func:`~lightcurves.clean.window_clean` for
         :attr:`SpinPrior.spectrum`.
+
+    Examples
+    --------
+    Ten minutes of a tumbling body sampled every second: one maximum per
+    60 s turn (6 deg/s), 0.3 mag semi-amplitude, 0.02 mag of noise.
+
+    >>> import numpy as np
+    >>> from lightcurves import extract_spin_prior
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(0.0, 600.0, 1.0)
+    >>> mag = 10.0 + 0.3 * np.cos(2 * np.pi * t / 60.0) + rng.normal(0.0, 0.02, t.size)
+    >>> prior = extract_spin_prior(t, mag, np.full(t.size, 0.02))
+    >>> prior.significant, prior.maxima_per_rotation
+    (True, 1)
+    >>> print(f"period {prior.period_s:.1f} s, rate {prior.rate_deg_s:.2f} deg/s")
+    period 60.0 s, rate 6.00 deg/s
+    >>> bool(abs(prior.rate_deg_s - 6.0) < 3 * prior.rate_sigma_deg_s)
+    True
     """
     t, y, dy = check_samples(t, mag, mag_err)
     _check_options(false_alarm_level, maxima_per_rotation, max_harmonics, min_cycles)

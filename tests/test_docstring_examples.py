@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 #: Modules whose public entry points carry an ``Examples`` section.
-MODULES = ["perception.bcpd", "estimators.filter"]
+MODULES = ["perception.bcpd", "estimators.filter", "lightcurves.prior"]
 
 
 @pytest.mark.parametrize("name", MODULES)
