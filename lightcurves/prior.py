@@ -24,7 +24,7 @@ aliased photometry):
    3.5 robust σ away (outliers) are dropped and the three best candidates are
    refined and compared again on the rest. **P against 2P**: when the
    winner's residuals are white, an F-test of the odd harmonics 1 and 3 of
-   ``f/2`` against a ``2K``-harmonic fit at ``f`` makes ``f/2`` the
+   ``f/2`` against the ``K``-harmonic fit at ``f`` makes ``f/2`` the
    fundamental at p < 0.01 — BIC's ``ln N`` per parameter kept eclipsing
    binaries with nearly equal minima at twice their frequency. The result is
    the fundamental of the light curve, the rotation frequency when
@@ -631,18 +631,18 @@ def _rank(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, f
 def _odd_harmonic_test(s: _Series, f: float, K: int, max_harmonics: int) -> tuple[float, int, float] | None:
     """Step 4d, P against 2P: ``(f/2 refined, its K, p)`` where ``p`` is the F-test probability that the first odd
     harmonics of ``f/2`` (1 and 3 — absent from a curve whose fundamental is ``f``, the largest ones for two unequal
-    minima or maxima) reduce ``χ²`` of a fit at ``f`` this much by chance: ``F = (Δχ²/q)/(χ²/(N − p))``, ``q`` = 2 per
-    odd harmonic, ``F(q, N − p)`` under "the fundamental is f" with white residuals. The fit at ``f`` has ``2K``
-    harmonics (as many as allowed), not the BIC's ``K``: the shape the ``K`` harmonics miss (narrow eclipses) would
-    otherwise leak into the odd terms — on 40 sparse eclipsing curves (80 points, 3 seasons), with ``K`` 1 of the
-    30 whose period was right had ``p`` < 0.01, with ``2K`` none (smallest 0.075), while 5 of the 10 found at
-    ``2 f_true`` had ``p`` < 0.01. BIC alone charges ``ln N`` per parameter and kept eclipsing binaries with nearly
-    equal minima at ``2 f_true``. None when ``f/2`` has too few cycles or too few samples are left for the test.
+    minima or maxima) reduce ``χ²`` of the ``K``-harmonic fit at ``f`` this much by chance:
+    ``F = (Δχ²/q)/(χ²/(N − p))``, ``q`` = 2 per odd harmonic, ``F(q, N − p)`` under "the fundamental is f" with white
+    residuals. BIC alone charges ``ln N`` per parameter and kept eclipsing binaries with nearly equal minima at
+    ``2 f_true``. Measured on the benchmark's survey generator (development seeds 11 and 12, 300 curves): at
+    p < 0.01 the test recovers 8 of the 17 curves ranked at ``2 f_true`` and halves none of the 249 ranked right
+    (against a ``2K``-harmonic fit at ``f``: 8 and 2; ``K + 2``: 9 and 1). None when ``f/2`` has fewer than 2
+    cycles or too few samples are left for the test.
     The caller runs it only when the residuals at ``f`` are white (:func:`_correlation_fit`).
     """
     g = 0.5 * f
     odd = [k for k in (1, 3) if k * g <= s.nu_max]
-    X0 = _design(s.tc, s.V, f, min(2 * K, _harmonics_allowed(s, f, max_harmonics)))
+    X0 = _design(s.tc, s.V, f, K)
     X1 = np.concatenate([X0, *(np.column_stack([np.cos(2 * np.pi * k * g * s.tc), np.sin(2 * np.pi * k * g * s.tc)]) for k in odd)], axis=1)
     dof = s.n - X1.shape[1] - 1
     if dof < 4 or g * s.T < 2.0:
