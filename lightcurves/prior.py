@@ -594,9 +594,18 @@ def _finalists(s: _Series, starts: list[tuple[float, int, bool]], s2: float, max
 
 
 def _outliers(s: _Series, fit: _Fit) -> np.ndarray:
-    """Samples more than ``_OUTLIER_Z`` robust σ (1.4826 × median absolute weighted residual) from the fit."""
+    """Isolated samples more than ``_OUTLIER_Z`` robust σ (1.4826 × median absolute weighted residual) from the fit.
+
+    Only isolated ones: a run of consecutive samples that far off is signal the harmonic fit misses (a glint on a
+    rendered or tracked curve), not a bad measurement — dropping such runs sharpened the rendered arcs' rates
+    while their 1-σ stayed, and 90 % of them fell within 1σ.
+    """
     u = np.abs(fit.r * s.w)
-    return u > _OUTLIER_Z * 1.4826 * np.median(u)
+    far = u > _OUTLIER_Z * 1.4826 * np.median(u)
+    neighbour = np.zeros_like(far)
+    neighbour[1:] |= far[:-1]
+    neighbour[:-1] |= far[1:]
+    return far & ~neighbour
 
 
 def _rank(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, float, int, float | None, float]:
