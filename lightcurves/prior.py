@@ -19,10 +19,17 @@ aliased photometry):
    local grid, with the Bayesian information criterion
    ``BIC = χ²/s² + (2k + 4) ln N``. A sub-harmonic ``f/n`` wins only when its
    extra (odd) harmonics pay for their parameters — two unequal minima or
-   maxima per cycle — not because peaks line up. The winner's frequency is
-   refined by minimising χ²; it is the fundamental of the light curve, the
-   rotation frequency when ``maxima_per_rotation`` (the strongest harmonic's
-   number) is explained by the shape;
+   maxima per cycle — not because peaks line up. The best candidate's
+   frequency is refined by minimising χ²; samples its fit leaves more than
+   3.5 robust σ away (outliers) are dropped and the three best candidates are
+   refined and compared again on the rest. **P against 2P**: when the
+   winner's residuals are white, an F-test of the odd harmonics 1 and 3 of
+   ``f/2`` against the ``K``-harmonic fit at ``f`` makes ``f/2`` the
+   fundamental at p < 0.01 — BIC's ``ln N`` per parameter kept eclipsing
+   binaries with nearly equal minima at twice their frequency. The result is
+   the fundamental of the light curve, the rotation frequency when
+   ``maxima_per_rotation`` (the strongest harmonic's number) is explained by
+   the shape;
 5. **significance**: the false-alarm probability of the periodogram maximum
    (Baluev 2008, via ``LombScargle.false_alarm_probability``) after the
    power is divided by the expected periodogram of the noise: the largest
@@ -58,13 +65,14 @@ for (plots and recordings); the period search does not need it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 from astropy.timeseries import LombScargle
 from astropy.timeseries.periodograms.lombscargle.implementations.utils import trig_sum
-from scipy.optimize import minimize, minimize_scalar
+from scipy import stats
+from scipy.optimize import least_squares
 
 from lightcurves.clean import WindowCleanResult, window_clean
 from lightcurves.clean_implementations.fast import window as spectral_window
@@ -81,9 +89,13 @@ _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
 _TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
-_NUFFT_OVERSAMPLING = 3  #: astropy extirpolation grid (default 5): half the FFT length, same peaks and classifications (seeds 1, 2)
-_FAST = {"trig_sum_kwds": {"oversampling": _NUFFT_OVERSAMPLING}}
+_NUFFT_OVERSAMPLING = 3  #: extirpolation grid of the red-noise spectrum's trig_sum (astropy's default 5): half the FFT length
+#: astropy ≥ 7 computes the fast periodogram by a low-rank NUFFT to 5e-13; 1e-7 is accurate beyond any use here (measured:
+#: largest power error 3e-7 of the maximum on benchmark curves) and halves the time of a survey periodogram (264 -> 142 ms)
+_FAST = {"trig_sum_kwds": {"eps": 1e-7}}
 _BATCH = 400_000  #: complex numbers per batch of the harmonic fits (memory bound)
+_OUTLIER_Z = 3.5  #: samples this many robust σ from the best-ranked fit are left out (Gaussian noise: 5e-4 of them)
+_ODD_ALPHA = 1e-2  #: F-test level at which the odd harmonics of f/2 make f/2 the fundamental
 
 
 @dataclass(frozen=True)
@@ -96,7 +108,8 @@ class Candidate:
     harmonic: int | None  #: n if frequency ≈ n f_rot, else None
 
     def to_dict(self) -> dict:
-        return {"frequency_hz": self.frequency_hz, "period_s": 1.0 / self.frequency_hz, "amplitude_mag": self.amplitude_mag, "false_alarm_probability": self.false_alarm_probability, "harmonic": self.harmonic}
+        return {"frequency_hz": self.frequency_hz, "period_s": 1.0 / self.frequency_hz, "amplitude_mag": self.amplitude_mag,
+                "false_alarm_probability": self.false_alarm_probability, "harmonic": self.harmonic}
 
 
 @dataclass(frozen=True)
@@ -261,32 +274,30 @@ def _correlation_fit(t: np.ndarray, r: np.ndarray) -> tuple[float, float]:
     Correlation is accepted when it lowers Σ n_b ρ_b² (χ² of "white", n_b pairs per bin) by more than 20.
     """
     T = t[-1] - t[0]
-    lags, prods = [], []
-    for k in range(1, min(t.size, 201)):
-        d = t[k:] - t[:-k]
-        if d.min() > 0.25 * T:
-            break
-        lags.append(d)
-        prods.append(r[k:] * r[:-k])
-    d, p = np.concatenate(lags), np.concatenate(prods)
+    L = min(t.size - 1, 200)
+    # all pairs (i, i + k), k ≤ L, as an (N, L) table: times padded with +inf (dropped below), residuals with 0
+    tp = np.concatenate([t, np.full(L, np.inf)])
+    rp = np.concatenate([r, np.zeros(L)])
+    D = np.lib.stride_tricks.sliding_window_view(tp, L + 1)[: t.size]
+    R = np.lib.stride_tricks.sliding_window_view(rp, L + 1)[: t.size]
+    d = D[:, 1:] - D[:, :1]
     keep = d <= 0.25 * T
-    d, p = d[keep], p[keep] / np.mean(r**2)
-    edges = np.geomspace(d.min() * (1 - 1e-9), d.max() * (1 + 1e-9), 26)
-    b = np.clip(np.searchsorted(edges, d) - 1, 0, 24)
-    nb = np.bincount(b, minlength=25).astype(float)
+    d, p = d[keep], R[:, 1:][keep] * np.broadcast_to(R[:, :1], keep.shape)[keep] / np.mean(r**2)
+    # 25 log-spaced bins from the shortest to the longest lag (the index by logarithm: a third of a sorted search's time)
+    lo, hi = np.log(d.min() * (1 - 1e-9)), np.log(d.max() * (1 + 1e-9))
+    b = np.clip((25.0 * (np.log(d) - lo) / (hi - lo)).astype(int), 0, 24)
+    nb = np.bincount(b, np.ones_like(d), minlength=25)  # weighted: numpy's unweighted count is several times slower here
     ok = nb > 0
     rho = np.bincount(b, p, minlength=25)[ok] / nb[ok]
     lag = np.bincount(b, d, minlength=25)[ok] / nb[ok]
     nb = nb[ok]
-    best = (np.sum(nb * rho**2), 0.0, 0.0)
-    for tau in np.geomspace(0.3 * d.min(), T, 60):
-        e = np.exp(-lag / tau)
-        a = float(np.clip(np.sum(nb * e * rho) / np.sum(nb * e * e), 0.0, 1.0))
-        sse = float(np.sum(nb * (rho - a * e) ** 2))
-        if sse < best[0]:
-            best = (sse, a, float(tau))
+    taus = np.geomspace(0.3 * d.min(), T, 60)
+    E = np.exp(-lag[None, :] / taus[:, None])  # (τ grid, bin)
+    a = np.clip((E * nb * rho).sum(axis=1) / (E * E * nb).sum(axis=1), 0.0, 1.0)
+    sse = (nb * (rho - a[:, None] * E) ** 2).sum(axis=1)
+    i = int(np.argmin(sse))
     white = float(np.sum(nb * rho**2))
-    return (best[1], best[2]) if white - best[0] > 20.0 and best[1] > 0 else (0.0, 0.0)
+    return (float(a[i]), float(taus[i])) if white - sse[i] > 20.0 and a[i] > 0 else (0.0, 0.0)
 
 
 def _ou_quadratic(t: np.ndarray, u: np.ndarray, a: float, tau: float) -> float:
@@ -307,8 +318,9 @@ def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.n
 
     ``E P(f)/σ² = 1 + (2a/N) Σ_{j<k} e^{−Δ_jk/τ} cos(2πfΔ_jk)``, ``Δ_jk = t_k − t_j``: the noise's spectrum seen
     through the sampling window — red noise on nightly sampling raises the periodogram near 0 *and* near
-    1/day, 2/day. Only lags under 5τ count (the rest weigh < e⁻⁵); the sum over lags is a non-uniform FFT
-    (astropy's ``trig_sum``) on a regular ``freq`` grid, direct otherwise. Floored at 0.05.
+    1/day, 2/day. Only lags under 5τ count (the rest weigh < e⁻⁵); on dense sampling they are binned to
+    1e-3 of the shortest period searched; the sum over lags is a non-uniform FFT (astropy's ``trig_sum``) on a
+    regular ``freq`` grid, direct otherwise. Floored at 0.05.
     """
     if tau <= 0.0 or a <= 0.0:
         return np.ones_like(freq)
@@ -323,6 +335,12 @@ def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.n
         return np.ones_like(freq)
     d = np.concatenate(lags)
     h = np.exp(-d / tau)
+    width = 1e-3 / freq[-1]  # lags binned this finely (h-weighted mean lag per bin) move a phase by < 1e-5 rad at most
+    if d.size > 2.0 * d.max() / width:  # dense sampling, long τ: millions of pairs, tens of thousands of bins
+        idx = (d / width).astype(int)
+        H = np.bincount(idx, h)
+        keep = H > 0
+        d, h = np.bincount(idx, h * d)[keep] / H[keep], H[keep]
     if freq.size > 64:
         _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True, oversampling=_NUFFT_OVERSAMPLING)
     else:
@@ -376,6 +394,14 @@ def _regular_nyquist(t: np.ndarray) -> float | None:
     return float(0.5 / d.min()) if np.all(np.abs(q - np.rint(q)) < 1e-3) else None
 
 
+def _vertex(x: float, h: float, c: np.ndarray) -> tuple[float, bool]:
+    """``(abscissa, inside)``: the minimum of the parabola through ``(x − h, c0), (x, c1), (x + h, c2)`` kept within
+    ``x ± h``, and whether it lies strictly inside (the lowest end when the parabola has no minimum)."""
+    den = c[0] - 2.0 * c[1] + c[2]
+    step = float(np.clip(0.5 * (c[0] - c[2]) / den, -1.0, 1.0)) if den > 0.0 else float(int(np.argmin(c)) - 1)
+    return x + h * step, abs(step) < 1.0
+
+
 def _is_harmonic(f: float, f0: float, T: float) -> bool:
     """``f ≈ k f0`` for a whole ``k ≥ 1``, within half a resolution element ``1/T``."""
     k = int(np.rint(f / f0))
@@ -402,6 +428,392 @@ def _parabolic(freq: np.ndarray, p: np.ndarray, i: np.ndarray) -> np.ndarray:
     den = a - 2 * b + c
     d = np.where(den < 0, 0.5 * (a - c) / np.where(den < 0, den, -1.0), 0.0)
     return freq[i] + np.clip(d, -0.5, 0.5) * (freq[1] - freq[0])
+
+
+# --------------------------------------------------------------------------------------------
+# the steps of extract_spin_prior
+
+
+@dataclass(frozen=True)
+class _Series:
+    """Steps 1–2: the checked series, its quadratic trend basis and its periodogram on ``[nu_min, nu_max]``."""
+
+    t: np.ndarray
+    y: np.ndarray
+    dy: np.ndarray | None
+    w: np.ndarray  #: 1/σ (ones when no errors were given)
+    tc: np.ndarray  #: t − mean(t) of the whole series
+    V: np.ndarray  #: quadratic trend basis, fitted jointly with the harmonics
+    yd: np.ndarray  #: y less its weighted quadratic trend
+    T: float
+    nu_min: float
+    nu_max: float
+    freq: np.ndarray
+    power: np.ndarray  #: standard-normalised Lomb–Scargle power of yd on freq (all samples)
+    ls: LombScargle
+    n_periodogram: int  #: samples the periodogram was computed from
+
+    @property
+    def n(self) -> int:
+        return self.t.size
+
+    @property
+    def W(self) -> np.ndarray:
+        return self.w**2
+
+    def chi2(self, freqs, K: int) -> np.ndarray:
+        return _harmonic_chi2(self.tc, self.V, self.y, self.W, freqs, K)
+
+    def refine(self, f0: float, K: int, half_width: float) -> float:
+        """The frequency minimising ``χ²_K`` within ``f0 ± half_width``: the best of 9 points, then the vertices of
+        parabolas through stencils 8 and 64 times narrower. Three or so batched evaluations (15 frequencies) instead of
+        the 12–20 single ones of a bounded Brent search (the stencil walks on while the minimum lies beyond it)."""
+        f = np.linspace(f0 - half_width, f0 + half_width, 9)
+        c = self.chi2(f, K)[:, -1]
+        i = int(np.clip(np.argmin(c), 1, 7))
+        h = f[1] - f[0]
+        x = _vertex(f[i], h, c[i - 1 : i + 2])[0]
+        for h in (h / 8, h / 64):
+            for _ in range(4):  # the stencil walks while the minimum lies beyond it
+                x, inside = _vertex(x, h, self.chi2([x - h, x, x + h], K)[:, -1])
+                if inside:
+                    break
+        return float(np.clip(x, f0 - half_width, f0 + half_width))
+
+    def without(self, drop: np.ndarray) -> _Series:
+        """The same series without the samples flagged in ``drop`` (the periodogram is kept)."""
+        k = ~drop
+        return replace(self, t=self.t[k], y=self.y[k], dy=None if self.dy is None else self.dy[k], w=self.w[k], tc=self.tc[k], V=self.V[k], yd=self.yd[k])
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """A ``K``-harmonic least-squares fit (with the trend) at frequency ``f``."""
+
+    f: float
+    K: int
+    X: np.ndarray
+    coef: np.ndarray
+    amps: np.ndarray  #: semi-amplitudes of the harmonics 1 … K
+    r: np.ndarray  #: residuals
+    t: np.ndarray
+    w: np.ndarray
+
+    @classmethod
+    def at(cls, s: _Series, f: float, K: int) -> _Fit:
+        X = _design(s.tc, s.V, f, K)
+        coef, *_ = np.linalg.lstsq(X * s.w[:, None], s.y * s.w, rcond=None)
+        return cls(float(f), int(K), X, coef, np.hypot(coef[3 : K + 3], coef[K + 3 :]), s.y - X @ coef, s.t, s.w)
+
+    @cached_property
+    def correlation(self) -> tuple[float, float]:
+        """``(a, τ)`` of the weighted residuals (:func:`_correlation_fit`), computed once."""
+        return _correlation_fit(self.t, self.r * self.w)
+
+
+def _prepare(t: np.ndarray, y: np.ndarray, dy: np.ndarray | None, nu_min: float | None, nu_max: float | None) -> _Series:
+    """Steps 1–2: remove the weighted quadratic trend, choose the band, compute the periodogram."""
+    T = float(t[-1] - t[0])
+    w = np.ones_like(y) if dy is None else 1.0 / dy
+    tc = t - t.mean()
+    V = np.vander(tc / T, 3)
+    trend, *_ = np.linalg.lstsq(V * w[:, None], y * w, rcond=None)
+    yd = y - V @ trend  # for the periodogram; the fits refit the trend jointly
+    nyq = _regular_nyquist(t)
+    top = (nyq if nyq is not None else 0.5 / np.median(np.diff(t))) - 1.0 / T
+    nu_max = top if nu_max is None else (min(float(nu_max), top) if nyq is not None else float(nu_max))
+    nu_min = 0.5 / T if nu_min is None else float(nu_min)
+    if not (0.0 < nu_min < nu_max - 2.0 / T):
+        raise ValueError(f"need 0 < nu_min < nu_max − 2/T; got nu_min {nu_min:.4g} Hz, nu_max {nu_max:.4g} Hz, 1/T = {1.0 / T:.4g} Hz")
+    df = 1.0 / (_SAMPLES_PER_PEAK * T)
+    freq = nu_min + df * np.arange(int((nu_max - nu_min) / df) + 1)
+    ls = LombScargle(t, yd, dy, normalization="standard")
+    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12)
+    return _Series(t, y, dy, w, tc, V, yd, T, nu_min, nu_max, freq, power, ls, t.size)
+
+
+def _trial_frequencies(s: _Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Step 3: ``(trial, ipk, peaks)`` — periodogram peaks, their window aliases, sub-harmonics and harmonic 2."""
+    df = s.freq[1] - s.freq[0]
+    ipk = _local_maxima(s.power, _N_PEAKS, _SAMPLES_PER_PEAK)
+    ipk = ipk[s.power[ipk] >= _PEAK_FLOOR * s.power[ipk[0]]]
+    peaks = _parabolic(s.freq, s.power, ipk)
+    m_win = int(np.ceil(min(s.nu_max, 4.0 / np.median(np.diff(s.t))) / df)) + 1  # the strong window peaks are at low offsets
+    aw = np.abs(spectral_window(s.t, df, m_win))
+    aw[: int(1.5 * _SAMPLES_PER_PEAK)] = 0.0  # the main lobe is no alias
+    iw = _local_maxima(aw, _N_ALIASES, _SAMPLES_PER_PEAK)
+    deltas = df * iw[aw[iw] >= _WINDOW_FLOOR]
+    base = np.concatenate([peaks, *(np.abs(peaks[:_N_ALIASED, None] + sign * deltas[None, :]).ravel() for sign in (1.0, -1.0))])
+    trial = np.unique(np.round(np.outer(base, _TRIAL_MULTIPLES).ravel() / (0.1 * df)) * 0.1 * df)
+    return trial[(trial >= s.nu_min) & (trial <= s.nu_max)], ipk, peaks
+
+
+def _harmonics_allowed(s: _Series, f: float, max_harmonics: int) -> int:
+    """Most harmonics a fit at ``f`` may have: ``K f ≤ nu_max``, ``4K + 6 ≤ N``, ``K ≤ max_harmonics``."""
+    return int(max(1, min(max_harmonics, np.floor(s.nu_max / f), (s.n - 6) // 4)))
+
+
+def _prune(s: _Series, trial: np.ndarray, offsets: np.ndarray, max_harmonics: int) -> np.ndarray:
+    """Step 4a: the ``_N_KEEP`` trial frequencies with the lowest BIC of 1–2-harmonic fits (cheap)."""
+    if trial.size <= _N_KEEP:
+        return trial
+    n = s.n
+    k2 = min(_harmonics_allowed(s, trial.min(), max_harmonics), 2)
+    c2 = s.chi2((trial[:, None] + offsets[None, :]).ravel(), k2).reshape(trial.size, offsets.size, k2)
+    ok2 = np.arange(1, k2 + 1)[None, None, :] <= np.array([min(_harmonics_allowed(s, f, max_harmonics), 2) for f in trial])[:, None, None]
+    c2 = np.where(ok2, c2, np.inf)
+    s2a = float(np.min(c2 / (n - 2 * np.arange(1, k2 + 1) - 4)))
+    score = np.min(c2 / s2a + 2 * np.arange(1, k2 + 1) * np.log(n), axis=(1, 2))
+    return trial[np.sort(np.argsort(score)[:_N_KEEP])]
+
+
+def _bic(c2: np.ndarray, k_mask: np.ndarray, s2: float, n: int) -> np.ndarray:
+    """``χ²/s² + (2k + 4) ln N`` for the last axis ``k = 1 … K`` (trend, harmonics, frequency); ∞ where not allowed."""
+    k = np.arange(1, c2.shape[-1] + 1)
+    return np.where(k_mask, c2 / s2 + (2 * k + 4) * np.log(n), np.inf)
+
+
+def _score_trials(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Step 4b: BIC of ``k``-harmonic fits (k ≤ ``_K_SCORE``) on a local grid (±0.2/T) around each trial frequency.
+
+    Returns the grid (trial, offset), the BIC table (trial, offset, k) and the noise scale ``s²``: the residual
+    variance of the BIC-best model, found from the 1-harmonic fits' scale (larger, so the first pass does not
+    favour over-fitted models whose residual variance is biased low).
+    """
+    offsets = np.linspace(-0.2, 0.2, 5) / s.T
+    Kmax = min(_harmonics_allowed(s, trial.min(), max_harmonics), _K_SCORE)
+    grid = trial[:, None] + offsets[None, :]
+    chi2 = s.chi2(grid.ravel(), Kmax).reshape(trial.size, offsets.size, Kmax)
+    k_ok = (np.arange(1, Kmax + 1)[None, :] <= np.array([min(_harmonics_allowed(s, f, max_harmonics), _K_SCORE) for f in trial])[:, None])[:, None, :]
+    dof = s.n - 2 * np.arange(1, Kmax + 1) - 4
+    s2 = float(np.min(chi2[:, :, 0]) / dof[0])
+    for _ in range(2):
+        B = _bic(chi2, k_ok, s2, s.n)
+        i_b, j_b, k_b = np.unravel_index(np.argmin(B), B.shape)
+        s2 = float(chi2[i_b, j_b, k_b] / dof[k_b])
+    return grid, _bic(chi2, k_ok, s2, s.n), s2
+
+
+def _finalists(s: _Series, starts: list[tuple[float, int, bool]], s2: float, max_harmonics: int) -> list[tuple[float, float, int]]:
+    """Step 4c: each start ``(f0, k, refined)`` refined (unless it is already) by minimising ``χ²_k`` within ±0.1/T,
+    then scored by its best BIC over ``k ≤ K_max(f)``: ``[(BIC, f, K)]``, best first."""
+    out = []
+    for f0, k, refined in starts:
+        f = f0 if refined else s.refine(f0, k, 0.1 / s.T)
+        Kf = _harmonics_allowed(s, f, max_harmonics)
+        b = _bic(s.chi2([f], Kf)[0], np.ones(Kf, bool), s2, s.n)
+        out.append((float(np.min(b)), f, int(np.argmin(b)) + 1))
+    return sorted(out)
+
+
+def _outliers(s: _Series, fit: _Fit) -> np.ndarray:
+    """Isolated samples more than ``_OUTLIER_Z`` robust σ (1.4826 × median absolute weighted residual) from the fit.
+
+    Only isolated ones: a run of consecutive samples that far off is signal the harmonic fit misses (a glint on a
+    rendered or tracked curve), not a bad measurement — dropping such runs sharpened the rendered arcs' rates
+    while their 1-σ stayed, and 90 % of them fell within 1σ.
+    """
+    u = np.abs(fit.r * s.w)
+    far = u > _OUTLIER_Z * 1.4826 * np.median(u)
+    neighbour = np.zeros_like(far)
+    neighbour[1:] |= far[:-1]
+    neighbour[:-1] |= far[1:]
+    return far & ~neighbour
+
+
+def _rank(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, float, int, float | None, float]:
+    """Step 4: the best-ranked fundamental ``(series, f, K, ΔBIC of the runner-up, s²)``.
+
+    The best trial frequency is refined; samples its fit leaves more than ``_OUTLIER_Z`` robust σ away are
+    dropped (survey photometry has outliers of 4–10 σ; on the benchmark's survey curves one or two of them moved
+    a few periods by more than 1e-3), then the three best are refined and compared with up to ``max_harmonics``
+    harmonics on the rest. ``series`` is the one without them.
+    """
+    trial = _prune(s, trial, np.linspace(-0.2, 0.2, 3) / s.T, max_harmonics)
+    grid, B, s2 = _score_trials(s, trial, max_harmonics)
+    best_t = np.min(B, axis=(1, 2))
+    starts = []
+    for i in np.argsort(best_t)[:3]:
+        j, k = np.unravel_index(np.argmin(B[i]), B[i].shape)
+        starts.append((float(grid[i, j]), int(k) + 1, False))
+    k1 = starts[0][1]
+    f1 = s.refine(starts[0][0], k1, 0.1 / s.T)
+    drop = _outliers(s, _Fit.at(s, f1, k1))
+    if drop.any() and s.n - drop.sum() >= 4 * k1 + 6:
+        s = s.without(drop)
+        s2 = float(s.chi2([f1], k1)[0, -1]) / (s.n - 2 * k1 - 4)
+        f1 = s.refine(f1, k1, 0.1 / s.T)  # outliers can move the optimum by a good part of a resolution element
+    fin = _finalists(s, [(f1, k1, True), *starts[1:]], s2, max_harmonics)
+    bic_best, f_fit, K = fin[0]
+    others = [b for b, f, _ in fin[1:] if abs(f - f_fit) > 0.5 / s.T]  # a runner-up is a different frequency, not the same peak refined
+    runner = others[0] if others else float(np.min(best_t[np.abs(trial - f_fit) > 0.5 / s.T], initial=np.inf))
+    return s, f_fit, K, (float(runner - bic_best) if np.isfinite(runner) else None), s2
+
+
+def _odd_harmonic_test(s: _Series, f: float, K: int) -> float | None:
+    """Step 4d, P against 2P: the F-test probability ``p`` that the first odd
+    harmonics of ``f/2`` (1 and 3 — absent from a curve whose fundamental is ``f``, the largest ones for two unequal
+    minima or maxima) reduce ``χ²`` of the ``K``-harmonic fit at ``f`` this much by chance:
+    ``F = (Δχ²/q)/(χ²/(N − p))``, ``q`` = 2 per odd harmonic, ``F(q, N − p)`` under "the fundamental is f" with white
+    residuals. BIC alone charges ``ln N`` per parameter and kept eclipsing binaries with nearly equal minima at
+    ``2 f_true``. Measured on the benchmark's survey generator (development seeds 11 and 12, 300 curves): at
+    p < 0.01 the test recovers 8 of the 17 curves ranked at ``2 f_true`` and halves none of the 249 ranked right
+    (against a ``2K``-harmonic fit at ``f``: 8 and 2; ``K + 2``: 9 and 1). None when ``f/2`` has fewer than 2
+    cycles or too few samples are left for the test. Both fits come from one QR factorisation (the fit at ``f`` is
+    nested in the one with the odd terms). The caller runs it only when the residuals at ``f`` are white (:func:`_correlation_fit`).
+    """
+    g = 0.5 * f
+    odd = [k for k in (1, 3) if k * g <= s.nu_max]
+    arg = 2 * np.pi * g * np.outer(s.tc, odd)
+    X = np.concatenate([_design(s.tc, s.V, f, K), np.cos(arg), np.sin(arg)], axis=1)
+    q = 2 * len(odd)
+    dof = s.n - X.shape[1] - 1
+    if dof < 4 or g * s.T < 2.0:
+        return None
+    yw = s.y * s.w
+    z = np.linalg.qr(X * s.w[:, None], mode="reduced")[0].T @ yw
+    chi2_g = float(yw @ yw - z @ z)
+    chi2_f = chi2_g + float(z[-q:] @ z[-q:])  # the odd columns are last: dropping their coordinates gives the fit at f
+    return float(stats.f.sf((chi2_f - chi2_g) / q / (chi2_g / dof), q, dof)) if chi2_g > 0.0 else None
+
+
+def _rotation(s: _Series, fit: _Fit, maxima_per_rotation: int | None, max_harmonics: int, describe: str) -> tuple[_Fit, int, float, str]:
+    """Step 4e: ``(fit at the rotation frequency, maxima per rotation, strongest frequency, decision)``; with
+    ``maxima_per_rotation`` imposed, the fit is redone at the strongest harmonic divided by it."""
+    k_strong = int(np.argmax(fit.amps)) + 1
+    f_strong = float(k_strong * fit.f)
+    if maxima_per_rotation is None:
+        what = "one maximum" if k_strong == 1 else f"{k_strong} maxima"
+        return fit, k_strong, f_strong, f"{what} per rotation: {describe}"
+    n_max = int(maxima_per_rotation)
+    f_rot = k_strong * fit.f / n_max
+    if abs(f_rot - fit.f) > 1e-9 * fit.f:  # refit at the imposed rotation frequency
+        K = _harmonics_allowed(s, f_rot, max_harmonics)
+        fit = _Fit.at(s, s.refine(f_rot, K, 0.05 / s.T), K)
+    return fit, n_max, f_strong, f"{n_max} maxima per rotation imposed by the caller"
+
+
+@dataclass(frozen=True)
+class _Noise:
+    """Step 5: the noise model the significance and the 1-σ use."""
+
+    a_red: float  #: Ornstein–Uhlenbeck variance fraction of the residuals
+    tau: float  #: its correlation time (0: white)
+    spectrum: np.ndarray  #: expected noise periodogram on ``freq`` relative to white noise
+    z: np.ndarray  #: periodogram over that spectrum (Exp(1) per frequency for noise)
+    fap_max: float  #: false-alarm probability of the periodogram maximum (null: the data are noise)
+    ls_r: LombScargle  #: periodogram of the residuals
+
+    def fap(self, s: _Series, zz: float) -> float:
+        """Baluev (2008) false-alarm probability of a normalised periodogram value ``zz``."""
+        p = -np.expm1(-2.0 * zz / (s.n_periodogram - 3))
+        return float(s.ls.false_alarm_probability(p, method="baluev", minimum_frequency=s.nu_min, maximum_frequency=s.nu_max))
+
+
+def _noise(s: _Series, fit: _Fit) -> _Noise:
+    """Step 5: the periodogram divided by the largest of three noise spectra (module docstring, step 5)."""
+    a_red, tau = fit.correlation
+    n = s.n_periodogram
+    z_white = -0.5 * (n - 3) * np.log1p(-s.power)  # Exp(1) at one frequency for white noise
+    # The continuum is read off the residuals' periodogram (one point per 1/T), in the data's units (times the
+    # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
+    ls_r = LombScargle(s.t, fit.r, s.dy, normalization="standard")
+    coarse = s.freq[::_SAMPLES_PER_PEAK]
+    p_r = np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12)
+    z_res = -0.5 * (s.n - 3) * np.log1p(-p_r)
+    left = float(s.W @ fit.r**2) / float(s.W @ (s.yd - np.average(s.yd, weights=s.W)) ** 2)
+    continuum = left * np.interp(s.freq, coarse, _continuum(z_res, block=50))
+    spectrum = np.maximum(_red_spectrum(s.t, a_red, tau, s.freq), continuum)
+    # Whether a period exists: under the null hypothesis the data are the noise, so their own correlation (fitted to
+    # the detrended data) bounds the noise spectrum too — the residuals of a model fitted to red noise have lost part
+    # of their correlation. A real signal looks red as well, which costs a weak one its significance.
+    a_null, tau_null = _correlation_fit(s.t, s.yd * s.w)
+    z_null = z_white / np.maximum(spectrum, _red_spectrum(s.t, a_null, tau_null, s.freq))
+    noise = _Noise(a_red, tau, spectrum, z_white / spectrum, 1.0, ls_r)
+    return replace(noise, fap_max=noise.fap(s, float(np.max(z_null))))
+
+
+def _candidates(s: _Series, noise: _Noise, ipk: np.ndarray, f_rot: float, level: float) -> tuple[Candidate, ...]:
+    """The periodogram peaks significant at ``level`` against the noise spectrum, with their harmonic numbers."""
+    out = []
+    for i in ipk:
+        fap_i = noise.fap(s, noise.z[i])
+        if fap_i <= level:
+            a, b = s.ls.model_parameters(s.freq[i])[1:]
+            harmonic = int(np.rint(s.freq[i] / f_rot)) if _is_harmonic(s.freq[i], f_rot, s.T) else None
+            out.append(Candidate(float(s.freq[i]), float(np.hypot(a, b)), fap_i, harmonic))
+    return tuple(out)
+
+
+def _sigma_statistical(s: _Series, fit: _Fit, noise: _Noise) -> float:
+    """Step 6: the 1-σ of ``2π f`` — sandwich estimator with the residuals' Ornstein–Uhlenbeck covariance."""
+    K, coef = fit.K, fit.coef
+    arg = 2 * np.pi * fit.f * np.outer(s.tc, np.arange(1, K + 1))
+    dm_df = 2.0 * np.pi * s.tc * (np.arange(1, K + 1)[None, :] * (-coef[3 : K + 3] * np.sin(arg) + coef[K + 3 :] * np.cos(arg))).sum(axis=1)
+    J = np.column_stack([fit.X, dm_df]) * s.w[:, None]
+    u = J @ np.linalg.pinv(J.T @ J)[:, -1]
+    rw = fit.r * s.w
+    s2_res = float(rw @ rw) / max(s.n - J.shape[1], 1)
+    return 2.0 * np.pi * float(np.sqrt(max(s2_res * _ou_quadratic(s.t, u, noise.a_red, noise.tau), 0.0)))
+
+
+def _npa(s: _Series, fit: _Fit, noise: _Noise, peaks: np.ndarray, s2: float, level: float, ratio: float) -> bool:
+    """Step 7: non-principal-axis tumbling — (a) a strong residual frequency that is no harmonic of the fit's, or
+    (b) two unrelated sinusoids (the two strongest periodogram peaks, refined) fit better than the harmonic series (BIC)."""
+    p_r = np.clip(noise.ls_r.power(peaks, method="cython"), 0.0, 1.0 - 1e-12)  # a second strong frequency is among the peaks
+    zr = -0.5 * (s.n - 3) * np.log1p(-p_r) / np.interp(peaks, s.freq, noise.spectrum)
+    j_r = int(np.argmax(zr))
+    f_r = float(peaks[j_r])
+    amp_r = float(np.hypot(*noise.ls_r.model_parameters(f_r)[1:]))
+    if noise.fap(s, zr[j_r]) <= level and amp_r >= ratio * fit.amps.max() and not _is_harmonic(f_r, fit.f, s.T):
+        return True
+    if peaks.size < 2 or _is_harmonic(peaks[1], peaks[0], s.T) or _is_harmonic(peaks[0], peaks[1], s.T):
+        return False
+    yw = s.y * s.w
+
+    def two_sinusoids(fs):
+        X2 = np.concatenate([s.V, *(np.column_stack([np.cos(2 * np.pi * f * s.tc), np.sin(2 * np.pi * f * s.tc)]) for f in fs)], axis=1) * s.w[:, None]
+        G = X2.T @ X2
+        c2 = np.linalg.solve(G + 1e-12 * np.trace(G) * np.eye(7), X2.T @ yw)  # normal equations: 7 columns, well conditioned at distinct frequencies
+        return yw - X2 @ c2, c2
+
+    # variable projection: Levenberg–Marquardt on the two frequencies, the seven linear terms solved at each step
+    # (a tenth of the evaluations Nelder–Mead needed)
+    res2 = least_squares(lambda fs: two_sinusoids(fs)[0], peaks[:2], method="lm", x_scale=np.full(2, 1.0 / s.T), xtol=1e-6)
+    e2, cf = two_sinusoids(res2.x)
+    c2_two = float(e2 @ e2)
+    a_two = np.hypot(cf[[3, 5]], cf[[4, 6]])
+    bic_two = c2_two / s2 + 9 * np.log(s.n)
+    bic_one = float(s.W @ fit.r**2) / s2 + (2 * fit.K + 4) * np.log(s.n)
+    return bool(bic_two < bic_one and a_two.min() >= ratio * a_two.max())
+
+
+def _check_options(false_alarm_level: float, maxima_per_rotation: int | None, max_harmonics: int, min_cycles: float) -> None:
+    if maxima_per_rotation is not None and int(maxima_per_rotation) < 1:
+        raise ValueError(f"maxima_per_rotation must be a positive integer, got {maxima_per_rotation}")
+    if not (0.0 < false_alarm_level < 1.0):
+        raise ValueError(f"false_alarm_level must be in (0, 1), got {false_alarm_level}")
+    if int(max_harmonics) < 1 or not (min_cycles > 0):
+        raise ValueError(f"max_harmonics must be >= 1 and min_cycles > 0, got {max_harmonics} and {min_cycles}")
+
+
+def _choose_fundamental(s: _Series, trial: np.ndarray, max_harmonics: int) -> tuple[_Series, _Fit, float | None, float, str]:
+    """Step 4: ranked winner, then P against 2P: ``(series, fit, ΔBIC, s², description of the choice)``."""
+    s, f_fit, K, delta_bic, s2 = _rank(s, trial, max_harmonics)
+    describe = (f"a {K}-harmonic fit at the fundamental {f_fit:.6g} Hz has the lowest BIC of {trial.size} trial frequencies "
+                f"(periodogram peaks, their window aliases, f/2, f/3, 2f); runner-up ΔBIC {delta_bic:.1f}" if delta_bic is not None else
+                f"a {K}-harmonic fit at {f_fit:.6g} Hz")
+    fit = _Fit.at(s, f_fit, K)
+    # the F-test needs white residuals: correlated noise, or a shape the fit misses, makes any extra sinusoid "significant"
+    p = _odd_harmonic_test(s, f_fit, K) if fit.correlation[1] == 0.0 else None
+    if p is not None and p < _ODD_ALPHA:
+        Kg = _harmonics_allowed(s, 0.5 * f_fit, max_harmonics)
+        g = s.refine(0.5 * f_fit, min(2 * K, Kg), 0.05 / s.T)
+        c2 = s.chi2([g], Kg)[0]
+        Kb = int(np.argmin(_bic(c2, True, float(c2[-1]) / max(s.n - 2 * Kg - 4, 1), s.n))) + 1
+        describe = f"the odd harmonics of f/2 = {g:.6g} Hz are significant (F-test p = {p:.2g} < {_ODD_ALPHA:g}; BIC preferred {f_fit:.6g} Hz)"
+        return s, _Fit.at(s, g, Kb), None, s2, describe
+    return s, fit, delta_bic, s2, describe
 
 
 def extract_spin_prior(
@@ -443,210 +855,76 @@ def extract_spin_prior(
         directions are not given.
     clean_options : passed to :func:`~lightcurves.clean.window_clean` for
         :attr:`SpinPrior.spectrum`.
+
+    Examples
+    --------
+    Ten minutes of a tumbling body sampled every second: one maximum per
+    60 s turn (6 deg/s), 0.3 mag semi-amplitude, 0.02 mag of noise.
+
+    >>> import numpy as np
+    >>> from lightcurves import extract_spin_prior
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(0.0, 600.0, 1.0)
+    >>> mag = 10.0 + 0.3 * np.cos(2 * np.pi * t / 60.0) + rng.normal(0.0, 0.02, t.size)
+    >>> prior = extract_spin_prior(t, mag, np.full(t.size, 0.02))
+    >>> prior.significant, prior.maxima_per_rotation
+    (True, 1)
+    >>> print(f"period {prior.period_s:.1f} s, rate {prior.rate_deg_s:.2f} deg/s")
+    period 60.0 s, rate 6.00 deg/s
+    >>> bool(abs(prior.rate_deg_s - 6.0) < 3 * prior.rate_sigma_deg_s)
+    True
     """
     t, y, dy = check_samples(t, mag, mag_err)
-    if maxima_per_rotation is not None and int(maxima_per_rotation) < 1:
-        raise ValueError(f"maxima_per_rotation must be a positive integer, got {maxima_per_rotation}")
-    if not (0.0 < false_alarm_level < 1.0):
-        raise ValueError(f"false_alarm_level must be in (0, 1), got {false_alarm_level}")
-    if int(max_harmonics) < 1 or not (min_cycles > 0):
-        raise ValueError(f"max_harmonics must be >= 1 and min_cycles > 0, got {max_harmonics} and {min_cycles}")
-    T = float(t[-1] - t[0])
-    n = t.size
-    w = np.ones_like(y) if dy is None else 1.0 / dy
-    W = w**2
-    # Step 1: remove the slow trend (phase angle, range) by weighted quadratic least squares.
-    tn = (t - t.mean()) / T
-    V = np.vander(tn, 3)
-    trend, *_ = np.linalg.lstsq(V * w[:, None], y * w, rcond=None)
-    yd = y - V @ trend  # for the periodogram; the fits below refit the trend jointly
-    tc = t - t.mean()
-    # Step 2: band and periodogram.
-    nyq = _regular_nyquist(t)
-    top = (nyq if nyq is not None else 0.5 / np.median(np.diff(t))) - 1.0 / T
-    nu_max = top if nu_max is None else (min(float(nu_max), top) if nyq is not None else float(nu_max))
-    nu_min = 0.5 / T if nu_min is None else float(nu_min)
-    if not (0.0 < nu_min < nu_max - 2.0 / T):
-        raise ValueError(f"need 0 < nu_min < nu_max − 2/T; got nu_min {nu_min:.4g} Hz, nu_max {nu_max:.4g} Hz, 1/T = {1.0 / T:.4g} Hz")
-    series = (t, yd, nu_max, clean_options)
-    df = 1.0 / (_SAMPLES_PER_PEAK * T)
-    freq = nu_min + df * np.arange(int((nu_max - nu_min) / df) + 1)
-    ls = LombScargle(t, yd, dy, normalization="standard")
-    power = np.clip(ls.power(freq, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12)
-    # Step 3: candidates — periodogram peaks, their window aliases, sub-harmonics and harmonic 2.
-    ipk = _local_maxima(power, _N_PEAKS, _SAMPLES_PER_PEAK)
-    ipk = ipk[power[ipk] >= _PEAK_FLOOR * power[ipk[0]]]
-    peaks = _parabolic(freq, power, ipk)
-    m_win = int(np.ceil(min(nu_max, 4.0 / np.median(np.diff(t))) / df)) + 1  # the strong window peaks are at low offsets
-    aw = np.abs(spectral_window(t, df, m_win))
-    aw[: int(1.5 * _SAMPLES_PER_PEAK)] = 0.0  # the main lobe is no alias
-    iw = _local_maxima(aw, _N_ALIASES, _SAMPLES_PER_PEAK)
-    deltas = df * iw[aw[iw] >= _WINDOW_FLOOR]
-    base = np.concatenate([peaks, *(np.abs(peaks[:_N_ALIASED, None] + s * deltas[None, :]).ravel() for s in (1.0, -1.0))])
-    trial = np.unique(np.round(np.outer(base, _TRIAL_MULTIPLES).ravel() / (0.1 * df)) * 0.1 * df)
-    trial = trial[(trial >= nu_min) & (trial <= nu_max)]
-    # Step 4: rank by BIC of k-harmonic fits on a local grid (±0.2/T) around each trial frequency.
-    K_of = lambda f: int(max(1, min(max_harmonics, np.floor(nu_max / f), (n - 6) // 4)))  # noqa: E731
-    offsets = np.linspace(-0.2, 0.2, 5) / T
-    if trial.size > _N_KEEP:  # prune with 1–2 harmonics first (cheap), then score the rest with up to _K_SCORE
-        k2 = min(K_of(trial.min()), 2)
-        c2 = _harmonic_chi2(tc, V, y, W, (trial[:, None] + offsets[None, :]).ravel(), k2).reshape(trial.size, offsets.size, k2)
-        ok2 = np.arange(1, k2 + 1)[None, None, :] <= np.array([min(K_of(f), 2) for f in trial])[:, None, None]
-        c2 = np.where(ok2, c2, np.inf)
-        s2a = float(np.min(c2 / (n - 2 * np.arange(1, k2 + 1) - 4)))
-        score = np.min(c2 / s2a + 2 * np.arange(1, k2 + 1) * np.log(n), axis=(1, 2))
-        trial = trial[np.sort(np.argsort(score)[:_N_KEEP])]
-    Kmax = min(K_of(trial.min()), _K_SCORE)
-    grid = (trial[:, None] + offsets[None, :]).ravel()
-    chi2 = _harmonic_chi2(tc, V, y, W, grid, Kmax).reshape(trial.size, offsets.size, Kmax)
-    k_ok = np.arange(1, Kmax + 1)[None, :] <= np.array([min(K_of(f), _K_SCORE) for f in trial])[:, None]  # (trial, k)
-    dof = n - 2 * np.arange(1, Kmax + 1) - 4
-    penalty = (2 * np.arange(1, int(max_harmonics) + 1) + 4) * np.log(n)  # trend, harmonics, frequency
-
-    def bic(c2, k_mask):
-        return np.where(k_mask, c2 / s2 + penalty[: c2.shape[-1]], np.inf)
-
-    # Noise scale: the residual variance of the BIC-best model, found from the 1-harmonic fits' scale (larger, so
-    # the first pass does not favour over-fitted models whose residual variance is biased low).
-    s2 = float(np.min(chi2[:, :, 0]) / dof[0])
-    for _ in range(2):
-        B = bic(chi2, k_ok[:, None, :])  # (trial, offset, k)
-        i_b, j_b, k_b = np.unravel_index(np.argmin(B), B.shape)
-        s2 = float(chi2[i_b, j_b, k_b] / dof[k_b])
-    B = bic(chi2, k_ok[:, None, :])
-    best_t = np.min(B, axis=(1, 2))
-    order = np.argsort(best_t)
-    finalists = []
-    for i in order[:3]:
-        j, k = np.unravel_index(np.argmin(B[i]), B[i].shape)
-        f0, k = float(grid.reshape(trial.size, -1)[i, j]), int(k) + 1
-        res = minimize_scalar(lambda f: _harmonic_chi2(tc, V, y, W, [f], k)[0, -1], bounds=(f0 - 0.1 / T, f0 + 0.1 / T), method="bounded", options={"xatol": 1e-5 / T})
-        c2 = _harmonic_chi2(tc, V, y, W, [res.x], K_of(res.x))[0]
-        b = bic(c2, np.arange(1, c2.size + 1) <= K_of(res.x))
-        finalists.append((float(np.min(b)), float(res.x), int(np.argmin(b)) + 1))
-    finalists.sort()
-    bic_best, f_fit, K = finalists[0]
-    # a runner-up is a different frequency (not the same peak refined)
-    others = [b for b, f, _ in finalists[1:] if abs(f - f_fit) > 0.5 / T]
-    runner = others[0] if others else float(np.min(best_t[np.abs(trial - f_fit) > 0.5 / T], initial=np.inf))
-    delta_bic = float(runner - bic_best) if np.isfinite(runner) else None
-    # Fit at the winner: coefficients, harmonic amplitudes, residuals.
-    X = _design(tc, V, f_fit, K)
-    coef, *_ = np.linalg.lstsq(X * w[:, None], y * w, rcond=None)
-    amps = np.hypot(coef[3 : K + 3], coef[K + 3 :])
-    r = y - X @ coef
-    k_strong = int(np.argmax(amps)) + 1
-    if maxima_per_rotation is not None:
-        n_max = int(maxima_per_rotation)
-        f_rot = k_strong * f_fit / n_max
-        if abs(f_rot - f_fit) > 1e-9 * f_fit:  # refit at the imposed rotation frequency
-            K = K_of(f_rot)
-            res = minimize_scalar(lambda f: _harmonic_chi2(tc, V, y, W, [f], K)[0, -1], bounds=(f_rot - 0.05 / T, f_rot + 0.05 / T), method="bounded", options={"xatol": 1e-5 / T})
-            f_rot = float(res.x)
-            X = _design(tc, V, f_rot, K)
-            coef, *_ = np.linalg.lstsq(X * w[:, None], y * w, rcond=None)
-            amps = np.hypot(coef[3 : K + 3], coef[K + 3 :])
-            r = y - X @ coef
-        decision = f"{n_max} maxima per rotation imposed by the caller"
-    else:
-        f_rot, n_max = f_fit, k_strong
-        what = "one maximum" if n_max == 1 else f"{n_max} maxima"
-        decision = (f"{what} per rotation: a {K}-harmonic fit at the fundamental {f_rot:.6g} Hz has the lowest BIC of {trial.size} trial frequencies "
-                    f"(periodogram peaks, their window aliases, f/2, f/3, 2f); runner-up ΔBIC {delta_bic:.1f}" if delta_bic is not None else
-                    f"{what} per rotation: a {K}-harmonic fit at {f_rot:.6g} Hz")
-    # Step 5: significance against the residuals' noise spectrum.
-    a_red, tau = _correlation_fit(t, r * w)
-    z_white = -0.5 * (n - 3) * np.log1p(-power)  # Exp(1) at one frequency for white noise
-    # The continuum is read off the residuals' periodogram (one point per 1/T), in the data's units (times the
-    # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
-    ls_r = LombScargle(t, r, dy, normalization="standard")
-    coarse = freq[::_SAMPLES_PER_PEAK]
-    z_res = -0.5 * (n - 3) * np.log1p(-np.clip(ls_r.power(coarse, method="fast", assume_regular_frequency=True, method_kwds=_FAST), 0.0, 1.0 - 1e-12))
-    left = float(W @ r**2) / float(W @ (yd - np.average(yd, weights=W)) ** 2)
-    continuum = left * np.interp(freq, coarse, _continuum(z_res, block=50))
-    noise_spec = np.maximum(_red_spectrum(t, a_red, tau, freq), continuum)
-    z = z_white / noise_spec  # for the candidates and the NPA test, given that a period exists
-    # Whether one exists: under the null hypothesis the data are the noise, so their own correlation (fitted to the
-    # detrended data) bounds the noise spectrum too — the residuals of a model fitted to red noise have lost part
-    # of their correlation. A real signal looks red as well, which costs a weak one its significance.
-    a_null, tau_null = _correlation_fit(t, yd * w)
-    z_null = z_white / np.maximum(noise_spec, _red_spectrum(t, a_null, tau_null, freq))
-    i_max = int(np.argmax(z_null))
-    fap = lambda zz: float(ls.false_alarm_probability(-np.expm1(-2.0 * zz / (n - 3)), method="baluev", minimum_frequency=nu_min, maximum_frequency=nu_max))  # noqa: E731
-    fap_max = fap(z_null[i_max])
-    cycles = T * f_rot
+    _check_options(false_alarm_level, maxima_per_rotation, max_harmonics, min_cycles)
+    s = _prepare(t, y, dy, nu_min, nu_max)
+    series = (t, s.yd, s.nu_max, clean_options)
+    trial, ipk, peaks = _trial_frequencies(s)
+    s, fit, delta_bic, s2, describe = _choose_fundamental(s, trial, int(max_harmonics))
+    fit, n_max, f_strong, decision = _rotation(s, fit, maxima_per_rotation, int(max_harmonics), describe)
+    f_rot = fit.f
+    noise = _noise(s, fit)
+    cycles = s.T * f_rot
     warnings: list[str] = []
-    if tau > 0.0:
-        warnings.append(f"residuals are correlated ({a_red:.0%} of their variance Ornstein–Uhlenbeck, τ = {tau:.3g} s): the false-alarm probability and the 1-σ allow for it")
-    cands = []
-    for i in ipk:
-        if fap(z[i]) <= false_alarm_level:
-            a, b_ = ls.model_parameters(freq[i])[1:]
-            cands.append(Candidate(float(freq[i]), float(np.hypot(a, b_)), fap(z[i]), int(np.rint(freq[i] / f_rot)) if _is_harmonic(freq[i], f_rot, T) else None))
+    if noise.tau > 0.0:
+        warnings.append(f"residuals are correlated ({noise.a_red:.0%} of their variance Ornstein–Uhlenbeck, τ = {noise.tau:.3g} s): "
+                        "the false-alarm probability and the 1-σ allow for it")
+    cands = _candidates(s, noise, ipk, f_rot, false_alarm_level)
     if cycles < min_cycles:
-        warnings.append(f"the best period {1.0 / f_rot:.4g} s fits only {cycles:.2f} cycles in the {T:.4g} s arc (< {min_cycles:g}): "
+        warnings.append(f"the best period {1.0 / f_rot:.4g} s fits only {cycles:.2f} cycles in the {s.T:.4g} s arc (< {min_cycles:g}): "
                         "its frequency is not determined; observe longer")
-    if fap_max > false_alarm_level:
-        return SpinPrior(False, None, None, None, None, None, f"no significant period: the periodogram maximum has false-alarm probability {fap_max:.3g} > {false_alarm_level}"
-                         + (f" (noise spectrum: Ornstein–Uhlenbeck, τ = {tau:.3g} s)" if tau > 0 else ""), tuple(cands), False, false_alarm_level, fap_max, 0,
-                         tuple(warnings), float(cycles), None, None, tau, delta_bic, float(f_rot), series)
+    refused = dict(significant=False, rate_rad_s=None, rate_sigma_rad_s=None, frequency_hz=None, strongest_frequency_hz=None, maxima_per_rotation=None,
+                   candidates=cands, npa_suspected=False, false_alarm_level=false_alarm_level, false_alarm_probability=noise.fap_max, n_harmonics=0,
+                   warnings=tuple(warnings), n_cycles=float(cycles), noise_correlation_time_s=noise.tau, delta_bic=delta_bic, best_frequency_hz=float(f_rot),
+                   _series=series)
+    if noise.fap_max > false_alarm_level:
+        why = f"no significant period: the periodogram maximum has false-alarm probability {noise.fap_max:.3g} > {false_alarm_level}"
+        return SpinPrior(decision=why + (f" (noise spectrum: Ornstein–Uhlenbeck, τ = {noise.tau:.3g} s)" if noise.tau > 0 else ""), **refused)
     if cycles < min_cycles:
-        return SpinPrior(False, None, None, None, None, None, f"refused: {warnings[-1]}", tuple(cands), False, false_alarm_level, fap_max, 0, tuple(warnings), float(cycles), None, None, tau, delta_bic, float(f_rot), series)
-    # Step 6: the 1-σ — sandwich estimator with the residuals' Ornstein–Uhlenbeck covariance, plus the synodic term.
-    dm_df = 2.0 * np.pi * tc * (np.arange(1, K + 1)[None, :] * (-coef[3 : K + 3] * np.sin(2 * np.pi * f_rot * np.outer(tc, np.arange(1, K + 1)))
-                                                               + coef[K + 3 :] * np.cos(2 * np.pi * f_rot * np.outer(tc, np.arange(1, K + 1))))).sum(axis=1)
-    J = np.column_stack([X, dm_df]) * w[:, None]
-    A_inv = np.linalg.pinv(J.T @ J)
-    u = J @ A_inv[:, -1]
-    rw = r * w
-    s2_res = float(rw @ rw) / max(n - J.shape[1], 1)
-    var_f = s2_res * _ou_quadratic(t, u, a_red, tau)
-    sigma_stat = 2.0 * np.pi * float(np.sqrt(max(var_f, 0.0)))
+        return SpinPrior(decision=f"refused: {warnings[-1]}", **refused)
+    sigma_stat = _sigma_statistical(s, fit, noise)
     sigma_syn = _bisector_rate(t, sun_dir, observer_dir, phase_angle_rad)
     if sun_dir is None and observer_dir is None and phase_angle_rad is None:
         # without geometry the synodic offset is unknown, and on long arcs it dominates the error
         warnings.append("no viewing geometry given (sun_dir/observer_dir or phase_angle_rad): the 1-σ leaves out the "
                         "synodic offset, which dominates on long arcs (0.1 % of the rate for a GPS-like orbit)")
-    # Step 7: non-principal-axis tumbling — (a) a strong residual frequency that is no harmonic of f_rot, or
-    # (b) two unrelated sinusoids (the two strongest periodogram peaks, refined) fit better than the harmonic series (BIC).
-    p_r = np.clip(ls_r.power(peaks, method="cython"), 0.0, 1.0 - 1e-12)  # a second strong frequency is among the peaks
-    zr = -0.5 * (n - 3) * np.log1p(-p_r) / np.interp(peaks, freq, noise_spec)
-    j_r = int(np.argmax(zr))
-    f_r = float(peaks[j_r])
-    amp_r = float(np.hypot(*ls_r.model_parameters(f_r)[1:]))
-    npa = bool(fap(zr[j_r]) <= false_alarm_level and amp_r >= npa_amplitude_ratio * amps.max() and not _is_harmonic(f_r, f_rot, T))
-    if not npa and peaks.size >= 2 and not (_is_harmonic(peaks[1], peaks[0], T) or _is_harmonic(peaks[0], peaks[1], T)):
-
-        def chi2_two(fs):
-            X2 = np.concatenate([V, *(np.column_stack([np.cos(2 * np.pi * f * tc), np.sin(2 * np.pi * f * tc)]) for f in fs)], axis=1) * w[:, None]
-            c2 = np.linalg.solve(X2.T @ X2 + 1e-12 * np.trace(X2.T @ X2) * np.eye(7), X2.T @ (y * w))  # normal equations: 7 columns, well conditioned at distinct frequencies; an SVD per step cost 20 % of the run
-            e = y * w - X2 @ c2
-            return float(e @ e), c2
-
-        res2 = minimize(lambda fs: chi2_two(fs)[0], peaks[:2], method="Nelder-Mead", options={"xatol": 1e-3 / T, "fatol": 1e-9 * float(W @ y**2)})
-        c2_two, cf = chi2_two(res2.x)
-        a_two = np.hypot(cf[[3, 5]], cf[[4, 6]])
-        bic_two = c2_two / s2 + 9 * np.log(n)
-        bic_one = float(W @ r**2) / s2 + (2 * K + 4) * np.log(n)
-        npa = bool(bic_two < bic_one and a_two.min() >= npa_amplitude_ratio * a_two.max())
     return SpinPrior(
         significant=True,
         rate_rad_s=float(2.0 * np.pi * f_rot),
         rate_sigma_rad_s=float(np.hypot(sigma_stat, sigma_syn)),
         frequency_hz=float(f_rot),
-        strongest_frequency_hz=float(k_strong * f_fit),
+        strongest_frequency_hz=f_strong,
         maxima_per_rotation=n_max,
         decision=decision,
-        candidates=tuple(cands),
-        npa_suspected=npa,
+        candidates=cands,
+        npa_suspected=_npa(s, fit, noise, peaks, s2, false_alarm_level, npa_amplitude_ratio),
         false_alarm_level=false_alarm_level,
-        false_alarm_probability=fap_max,
-        n_harmonics=K,
+        false_alarm_probability=noise.fap_max,
+        n_harmonics=fit.K,
         warnings=tuple(warnings),
         n_cycles=float(cycles),
         rate_sigma_statistical_rad_s=sigma_stat,
         rate_sigma_synodic_rad_s=float(sigma_syn),
-        noise_correlation_time_s=tau,
+        noise_correlation_time_s=noise.tau,
         delta_bic=delta_bic,
         best_frequency_hz=float(f_rot),
         _series=series,

@@ -6,7 +6,7 @@ import importlib
 import pytest
 
 #: Modules whose public entry points carry an ``Examples`` section.
-MODULES = ["lightcurves.clean", "perception.bcpd", "estimators.filter"]
+MODULES = ["lightcurves.clean", "lightcurves.prior", "perception.bcpd", "estimators.filter"]
 
 
 @pytest.mark.parametrize("name", MODULES)

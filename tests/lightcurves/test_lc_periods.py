@@ -3,11 +3,13 @@
 import numpy as np
 import pytest
 from scipy import stats
+from scipy.optimize import minimize_scalar
 
 from lightcurves import extract_spin_prior
 from lightcurves.cadence import DAY_S, curve, heteroscedastic_noise, red_noise, satellite_times, survey_times
 from lightcurves.clean_implementations.fast import window
-from lightcurves.prior import _design, _harmonic_chi2
+from lightcurves.prior import _design, _harmonic_chi2, _odd_harmonic_test, _prepare, _rank, _trial_frequencies
+from lightcurves.samples import check_samples
 
 
 def test_batched_harmonic_chi2_equals_least_squares():
@@ -146,3 +148,86 @@ def test_rate_sigma_is_calibrated():
     lo2, hi2 = stats.binom.ppf([0.0005, 0.9995], n, 0.954)
     assert lo1 <= np.sum(z < 1) <= hi1
     assert lo2 <= np.sum(z < 2) <= hi2
+
+
+def _eclipsing_survey(seed, n=80, period_d=2.37):
+    """Unequal eclipses (secondary depth 0.3–0.8 of the primary) on ``n`` visits over 3 seasons, 0.05 mag noise."""
+    rng = np.random.default_rng(seed)
+    t = survey_times(rng, n, n_seasons=3)
+    P = period_d * DAY_S
+    noise, err = heteroscedastic_noise(rng, t.size, 0.05, outlier_fraction=0.0)
+    return t, 12 + curve("eclipsing", t / P + 0.1, 0.5, rng) + noise, err, P
+
+
+def test_odd_harmonics_of_half_the_frequency_tell_p_from_2p():
+    """Two eclipses of different depth on 80 sparse points: BIC ranks 2 f_true first (the odd harmonics cost ln N
+    each); the F-test of the odd harmonics 1 and 3 of f/2 finds them and the period comes out right."""
+    t, y, err, P = _eclipsing_survey(23)
+    s = _prepare(*check_samples(t, y, err), None, 1 / 7200.0)
+    s, f_bic, K, _, _ = _rank(s, _trial_frequencies(s)[0], 12)
+    assert f_bic * P == pytest.approx(2.0, abs=1e-3)
+    assert _odd_harmonic_test(s, f_bic, K) < 1e-4
+    prior = extract_spin_prior(t, y, err, nu_max=1 / 7200.0)
+    assert prior.significant and "odd harmonics" in prior.decision
+    assert prior.frequency_hz * P == pytest.approx(1.0, abs=1e-3)
+
+
+def test_odd_harmonic_f_test_is_uniform_under_the_null():
+    """A pure sinusoid in white noise has no odd harmonics of f/2: the F-test's p is uniform, so p < 0.05 for a
+    Bin(n, 0.05) count of n realisations (99.9 % band)."""
+    rng = np.random.default_rng(31)
+    n, hits = 300, 0
+    for _ in range(n):
+        t = np.sort(rng.uniform(0.0, 1000.0, 120))
+        f = rng.uniform(0.02, 0.05)
+        y = 10 + 0.2 * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.05, t.size)
+        s = _prepare(t, y, np.full(t.size, 0.05), None, 0.2)
+        hits += _odd_harmonic_test(s, s.refine(f, 1, 0.1 / s.T), 1) < 0.05
+    lo, hi = stats.binom.ppf([0.0005, 0.9995], n, 0.05)
+    assert lo <= hits <= hi
+
+
+def test_a_sinusoid_is_not_doubled():
+    """extract_spin_prior on sparse noisy sinusoids: the F-test acts at p < 0.01 and only with white residuals, so
+    at most a Bin(n, 0.01) count (99.9 % quantile) of n sinusoids may come out at half their frequency."""
+    rng = np.random.default_rng(32)
+    n, halved = 60, 0
+    for _ in range(n):
+        t = np.sort(rng.uniform(0.0, 1000.0, 60))
+        f = rng.uniform(0.02, 0.05)
+        y = 10 + 0.2 * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.05, t.size)
+        p = extract_spin_prior(t, y, np.full(t.size, 0.05), nu_max=0.2)
+        assert p.significant
+        halved += abs(p.frequency_hz / f - 0.5) < 1e-3
+    assert halved <= stats.binom.ppf(0.999, n, 0.01)
+
+
+def test_outliers_are_left_out_of_the_fit():
+    """Three 8-σ outliers on a sparse sinusoid: the frequency is the one found without them (they are dropped at
+    3.5 robust σ), and it is right."""
+    rng = np.random.default_rng(3)
+    t = survey_times(rng, 70, n_seasons=3)
+    P = 10.08 * DAY_S
+    err = np.full(t.size, 0.04)
+    y = 12 + 0.2 * np.cos(2 * np.pi * t / P + 0.4) + rng.normal(0, 0.04, t.size)
+    bad = np.array([5, 30, 55])
+    dirty = y.copy()
+    dirty[bad] += np.array([8.0, -8.0, 8.0]) * 0.04
+    keep = np.setdiff1d(np.arange(t.size), bad)
+    with_outliers = extract_spin_prior(t, dirty, err, nu_max=1 / 7200.0)
+    without = extract_spin_prior(t[keep], y[keep], err[keep], nu_max=1 / 7200.0)
+    assert with_outliers.frequency_hz == pytest.approx(without.frequency_hz, rel=1e-9)
+    assert with_outliers.frequency_hz * P == pytest.approx(1.0, abs=1e-3)
+
+
+def test_parabolic_refinement_finds_the_chi2_minimum():
+    """The batched parabolic stencils reach the minimum of χ²_K that a bounded Brent search finds (to 1e-4/T)."""
+    rng = np.random.default_rng(9)
+    for K in (1, 3, 6):
+        t = np.sort(rng.uniform(0.0, 600.0, 300))
+        y = 10 + curve("double", t / 37.0, 0.8, rng) + rng.normal(0, 0.05, t.size)
+        s = _prepare(t, y, np.full(t.size, 0.05), None, 0.5)
+        f0 = 1 / 37.0 + 0.04 / s.T
+        got = s.refine(f0, K, 0.1 / s.T)
+        ref = minimize_scalar(lambda f: s.chi2([f], K)[0, -1], bounds=(f0 - 0.1 / s.T, f0 + 0.1 / s.T), method="bounded", options={"xatol": 1e-7 / s.T}).x
+        assert abs(got - ref) * s.T < 1e-4
