@@ -34,6 +34,7 @@ import pandas as pd
 from scipy.stats import chi2
 
 from estimators.attitude import attitude_angle, mrp_to_quat, random_quaternion
+from estimators.combina_attitude import physical_k
 from studies.sim.combina import TU, CombinaConfig, filter_nees, run_combina, simulate_lvlh_truth
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig
@@ -50,13 +51,14 @@ FIELDS: dict[str, Field] = {
     "measurement_rate_hz": Field("float", "Pose measurement rate, Hz.", gt=0),
     "horizon_orbits": Field("float", "Simulated time per run, in chaser orbits (2π TU).", gt=0),
     "k_range": Field("list[float]", "[low, high] of the uniform draw of k1 and k2.", min_len=2),
+    "k_physical": Field("bool", "Draw k1, k2 from the rigid-body part of the k_range box only (rejection sampling).", default=False),
     "n_last": Field("int", "Converged: the NEES of the last n_last epochs pass the test.", ge=1),
     "converged_confidence": Field("float", "Probability of the chi-square test of the NEES.", gt=0, le=0.9999),
     "confidence": Field("float", "Confidence level of the Wilson intervals.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd for every run that did not break down.", default=False),
 }
 
-_RUN_FIELDS = ("measurement_rate_hz", "horizon_orbits", "k_range", "n_last", "converged_confidence", "record")
+_RUN_FIELDS = ("measurement_rate_hz", "horizon_orbits", "k_range", "k_physical", "n_last", "converged_confidence", "record")
 
 
 def check(params: dict) -> None:
@@ -90,11 +92,20 @@ def converged_last(nees: dict, t_last_s: float, confidence: float) -> dict[str, 
     return out
 
 
+def draw_inertia_ratios(rng: np.random.Generator, k_range, physical: bool) -> np.ndarray:
+    """``k1, k2 ~ U(k_range)²``; with ``physical``, redrawn until they are a rigid body's (:func:`estimators.combina_attitude.physical_k`)."""
+    for _ in range(1000):
+        k = rng.uniform(*k_range, size=2)
+        if not physical or physical_k(k):
+            return k
+    raise ConfigError(f"field 'k_range' {list(k_range)}: no physical inertia ratios in 1000 draws")
+
+
 def execute(spec: RunSpec, workdir: Path) -> dict:
     """One random initial condition at one tumbling rate; the convergence test of §VII."""
     p = spec.params
     rng = np.random.default_rng(spec.seed)
-    k = rng.uniform(*p["k_range"], size=2)
+    k = draw_inertia_ratios(rng, p["k_range"], p["k_physical"])
     q_IT0 = random_quaternion(rng)
     direction = rng.normal(size=3)
     w_T0 = p["rate_level_rad_s"] * direction / np.linalg.norm(direction)
