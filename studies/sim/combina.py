@@ -58,7 +58,7 @@ from typing import Protocol
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance
+from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
 from estimators.combina_translation import ScaledUnits, TranslationalUKF
@@ -94,6 +94,11 @@ MAX_CONSECUTIVE_REJECTIONS = 5
 ATT_ITERATIONS = 3
 #: Sigma points' k projected onto the rigid-body set before propagation (:class:`estimators.combina_attitude.AttitudeUKF`).
 PHYSICAL_SIGMA_POINTS = False
+#: Re-acquisition of a lost attitude filter: at least LOST_REJECTIONS of the last LOST_WINDOW attitude measurements rejected
+#: (a consistent filter with 5 % outliers: probability 4e-5), or the rate's 1-σ above LOST_RATE_FACTOR times the 1-σ
+#: of the rate a re-acquisition would measure.
+LOST_WINDOW, LOST_REJECTIONS, LOST_RATE_FACTOR = 8, 5, 2.0
+REACQUIRE = True
 #: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
 ROLL_WINDOW = 5
 SOURCES = ("simulated", "rendered")
@@ -250,6 +255,7 @@ class CombinaRun:
     iteration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: wall time of each iteration (registration + prediction + update)
     registration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the registration's part of it (the source's ``measure``)
     proxy_updates: int = 0
+    reacquisitions: int = 0  #: times the attitude filter was restarted from the measurements (:meth:`_ClosedLoop.reacquire`)
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
     roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
@@ -343,6 +349,9 @@ class _ClosedLoop:
         self.steps: list[Step] = []
         self.switch_time = None
         self.proxy_updates = 0
+        self.reacquisitions = 0
+        self.att_rejections: list[bool] = []  # the attitude gate's decisions (True: rejected)
+        self.last_att_meas: list[tuple[float, np.ndarray]] = []  # the last two scale-accepted measured attitudes (t, q_IT)
         n_meas = truth.t.size - 1
         self.iteration_s = np.zeros(n_meas)
         self.registration_s = np.zeros(n_meas)
@@ -390,8 +399,12 @@ class _ClosedLoop:
         if scale_ok:
             self._feed_symmetry_tests(i, ti, m)
             att_ok, switched = self._correct_attitude(ti, m)
+            self.att_rejections.append(not att_ok)
+            self.last_att_meas = [*self.last_att_meas[-1:], (ti, m.q_IT)]
         if not att_ok and self.cfg.prior == "proxy":
             self._proxy_update()
+        if REACQUIRE and self._lost():
+            self.reacquire()
         if scale_ok:
             self.C_post_fed = quat_to_dcm(self.att.q_IT).T
         if self.detector.detected or (self.roll_test is not None and self.roll_test.detected):
@@ -421,6 +434,38 @@ class _ClosedLoop:
             self.att.core.reset_covariance(np.diag(np.maximum(np.diag(self.att.P), np.diag(self.P0_a))))
             self.rejected_a = 0
         return False, False
+
+    def _lost(self) -> bool:
+        """The attitude filter has lost the target: too many recent rejections, or a rate less certain than two measurements would make it."""
+        recent = self.att_rejections[-LOST_WINDOW:]
+        sd_w = float(np.sqrt(np.max(np.diag(self.att.P)[3:6])))
+        return sum(recent) >= LOST_REJECTIONS or sd_w > LOST_RATE_FACTOR * self._reacquired_rate_sd(self.att.x[3:6], 1.0 / self.cfg.rate_hz)
+
+    def _reacquired_rate_sd(self, w, dt: float) -> float:
+        """1-σ per axis of a rate from two measured attitudes ``dt`` apart (:meth:`reacquire`)."""
+        sd_att = 4.0 * float(np.sqrt(self.R_a[0, 0]))  # error MRP ≈ angle/4
+        return np.sqrt(2.0) * sd_att / dt + 0.25 * dt * float(np.dot(w, w))
+
+    def reacquire(self) -> None:
+        """Restart the attitude filter from the last two measured attitudes (consecutive epochs only).
+
+        Attitude: the last measurement, with its noise ``R_a``. Rate: :func:`estimators.combina_attitude.rate_from_attitudes`
+        with the current ``k̂``; 1-σ per axis ``√2 σ_att/Δt`` (two measurements) plus ``0.25 Δt |ω̄|²`` (the
+        extrapolation over ``Δt/2`` with Euler coefficients uncertain by ±0.5). ``k``: the current estimate with ``P_0``'s variance.
+        """
+        if len(self.last_att_meas) < 2:
+            return
+        (t0, q0), (t1, q1) = self.last_att_meas
+        dt = t1 - t0
+        if dt > 1.5 / self.cfg.rate_hz:
+            return
+        k = self.att.x[6:8]
+        w = rate_from_attitudes(q0, q1, dt, k)
+        sd_w = self._reacquired_rate_sd(w, dt)
+        P = np.diag(np.concatenate([np.diag(self.R_a), [sd_w**2] * 3, np.diag(self.P0_a)[6:8]]))
+        self.att = AttitudeUKF(np.concatenate([quat_to_mrp(q1), w, k]), P, Q=attitude_process_noise, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+        self.att_rejections = []
+        self.reacquisitions += 1
 
     def _proxy_update(self) -> None:
         """The spin prior's rate in place of a rejected attitude measurement.
@@ -461,7 +506,7 @@ class _ClosedLoop:
         """The finished run."""
         return CombinaRun(config=self.cfg, truth=self.truth, measurements=self.meas, steps=self.steps, gates=self.gates, symmetry=self.checks,
                           switch_time_s=self.switch_time, C_GammaI=self.C_GammaI, iteration_s=self.iteration_s, registration_s=self.registration_s,
-                          proxy_updates=self.proxy_updates, prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
+                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
                           roll_ratios=np.array(self.roll_ratios).reshape(-1, 2))
 
 
