@@ -180,8 +180,8 @@ class AttitudeUKF:
         has Euler coefficients above 1 and a stiff, inaccurate propagation.
     """
 
-    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01, physical: bool = False,
-                 alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01,
+                 physical: bool = False, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (8,):
             raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")

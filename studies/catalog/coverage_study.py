@@ -48,6 +48,8 @@ TITLE = "CoMBiNa coverage against tumbling rate (Maestrini et al. §VII, Fig. 20
 FIELDS: dict[str, Field] = {
     "rate_levels_rad_s": Field("list[float]", "Tumbling-rate levels |ω_T|, rad/s.", gt=0),
     "n_initial_conditions": Field("int", "Random initial conditions per level.", ge=1),
+    "n_initial_conditions_above": Field("int", "Random initial conditions per level above full_up_to_rad_s (0: n_initial_conditions).", ge=0, default=0),
+    "full_up_to_rad_s": Field("float", "Levels up to this rate get n_initial_conditions.", gt=0, default=1.05),
     "measurement_rate_hz": Field("float", "Pose measurement rate, Hz.", gt=0),
     "horizon_orbits": Field("float", "Simulated time per run, in chaser orbits (2π TU).", gt=0),
     "k_range": Field("list[float]", "[low, high] of the uniform draw of k1 and k2.", min_len=2),
@@ -73,11 +75,17 @@ def check(params: dict) -> None:
         raise ConfigError(f"field 'horizon_orbits' gives {n} measurements per run, fewer than n_last = {params['n_last']}")
 
 
+def n_runs_at(config: StudyConfig, rate_rad_s: float) -> int:
+    """Initial conditions at one level: ``n_initial_conditions`` up to ``full_up_to_rad_s``, ``n_initial_conditions_above`` (if set) beyond."""
+    above = config["n_initial_conditions_above"]
+    return config["n_initial_conditions"] if rate_rad_s <= config["full_up_to_rad_s"] + 1e-9 or above == 0 else above
+
+
 def expand(config: StudyConfig) -> list[RunSpec]:
     """Levels × initial conditions; run ids ``w<level>rads-ic<index>``."""
     common = {k: config[k] for k in _RUN_FIELDS}
     return make_specs(config.seed, ((f"w{w:.3f}rads-ic{i:03d}", {"rate_level_rad_s": w, "ic_index": i, **common})
-                                    for w in config["rate_levels_rad_s"] for i in range(config["n_initial_conditions"])))
+                                    for w in config["rate_levels_rad_s"] for i in range(n_runs_at(config, w))))
 
 
 def converged_last(nees: dict, t_last_s: float, confidence: float, *, joint: bool = False) -> dict[str, bool]:
@@ -173,8 +181,11 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
             f"consistent filter passes the {n} epochs together with probability ≥ {c:.0%})") if config["converged_rule"] == "joint" else (
             f"the NEES of every active filter at each of the last {n} epochs is below the {c:.0%} χ² quantile")
     physical = ", redrawn until A ≤ B + C and its permutations hold (a rigid body)" if config["k_physical"] else ""
+    n_ic = config["n_initial_conditions"]
+    per_level = f"{n_ic}" if config["n_initial_conditions_above"] in (0, n_ic) else (
+        f"{n_ic} (levels ≤ {config['full_up_to_rad_s']:g} rad/s; {config['n_initial_conditions_above']} above)")
     notes = (
-        f"{config['n_initial_conditions']} random initial conditions per level (k1, k2 ~ U{tuple(config['k_range'])}{physical}, uniform attitude, "
+        f"{per_level} random initial conditions per level (k1, k2 ~ U{tuple(config['k_range'])}{physical}, uniform attitude, "
         f"uniform direction of ω), simulated pose measurements at {config['measurement_rate_hz']:g} Hz for {config['horizon_orbits']:g} "
         f"chaser orbit(s). Converged: {rule}. 'converged, per-epoch rule': each epoch at {c:.0%} instead. Wilson {pct}% intervals. "
         "Diverged: the attitude propagation or the UKF covariance broke down numerically (counted as not converged)."

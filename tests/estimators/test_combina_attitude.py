@@ -141,9 +141,9 @@ def test_no_non_physical_sigma_point_is_propagated(monkeypatch):
 
 
 def test_rate_from_two_attitudes_of_a_torque_free_tumbler():
-    """Two noise-free attitudes 3 s apart (DOP853 truth, rigid-body k): the rate at the second is within the
-    re-acquisition's stated model error ``0.25 Δt |ω|²`` per axis at 0.3–0.9 rad/s (turns < π per interval), on 30 random ICs,
-    and exact for a spin about a principal axis; the mean rate alone (no eq. 29 extrapolation) is worse on average."""
+    """Two noise-free attitudes 3 s apart (DOP853 truth, rigid-body k known): the rate at the second is within ``0.25 Δt |ω|²``
+    per axis at 0.3–0.9 rad/s (turns < π per interval) on 30 random ICs (the re-acquisition's 1-σ, with k uncertain by 0.3,
+    is ``0.1 Δt |ω|²``), and exact for a spin about a principal axis; the mean rate alone (no eq. 29 extrapolation) is worse on average."""
     rng = np.random.default_rng(8)
     dt = 3.0
     err_ext, err_mean = [], []
