@@ -2,7 +2,7 @@
 
 ``python -m benchmarks coverage`` runs the study with its default config
 (``studies/catalog/configs/coverage.toml``: levels 0.15 … 1.5 rad/s, 30 initial
-conditions each) on 2 local workers, copies its ``coverage.png`` (Fig. 20 with
+conditions each up to 1.05 rad/s and 10 above, rigid-body k) on 2 local workers, copies its ``coverage.png`` (Fig. 20 with
 Wilson intervals) to ``benchmarks/coverage.png`` and returns the summary table
 as this section. ``lcnav study coverage --out DIR`` gives the same table and
 figure in ``DIR``. Nothing is asserted here; the binomial checks are in

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators.attitude import mrp_to_quat, quat_conjugate, quat_derivative, quat_multiply, quat_normalize, quat_to_mrp
+from estimators.attitude import mrp_to_quat, quat_conjugate, quat_derivative, quat_multiply, quat_normalize, quat_to_mrp, quat_to_rotvec
 from estimators.combina_unscented import Innovation, UnscentedCore
 from estimators.dynamics import euler_rhs
 
@@ -80,6 +80,55 @@ def attitude_process_noise(dt_s: float, *, torque_accel_rad_s2: float = 1e-7, k_
     return np.diag([(a * dt_s**2 / 4.0) ** 2] * 3 + [(a * dt_s) ** 2] * 3 + [qk**2 * dt_s] * 2)
 
 
+def physical_k(k) -> np.ndarray:
+    """Whether inertia ratios ``k = [ln(A/B), ln(B/C)]`` (..., 2) belong to a rigid body: each principal moment at most the sum of the other two.
+
+    The triangle inequalities of the inertia tensor (``A ≤ B + C`` and its
+    permutations) are equivalent to every Euler coefficient
+    ``|(J_j − J_k)/J_i|`` of eq. 29 being at most 1. Of the box
+    ``k ∈ [−1.5, 1.5]²``, 39.5 % is physical; ``k = (1.5, 1.5)`` has a
+    coefficient of 15.6.
+    """
+    J = _moments(k)
+    return 2.0 * np.max(J, axis=-1) <= np.sum(J, axis=-1) * (1.0 + 1e-12)
+
+
+def _moments(k) -> np.ndarray:
+    """``[A, B, C]`` with ``B = 1`` from ``k = [ln(A/B), ln(B/C)]`` (eq. 27) for a batch ``(..., 2)`` (:func:`estimators.dynamics.inertia_from_k` is scalar)."""
+    k = np.asarray(k, dtype=float)
+    return np.stack([np.exp(k[..., 0]), np.ones_like(k[..., 0]), np.exp(-k[..., 1])], axis=-1)
+
+
+def project_k_physical(k) -> np.ndarray:
+    """``k`` (..., 2) with every non-physical ratio moved onto the flat-plate boundary of :func:`physical_k`.
+
+    A violation has one moment larger than the sum of the other two; it is set
+    to that sum (the flat-plate limit, Euler coefficient 1) and ``k`` is
+    recomputed from the moments (eq. 27). Physical ``k`` is returned unchanged.
+    """
+    J = _moments(k)
+    i = np.argmax(J, axis=-1)[..., None]
+    j_max = np.take_along_axis(J, i, axis=-1)
+    others = np.sum(J, axis=-1, keepdims=True) - j_max
+    np.put_along_axis(J, i, np.minimum(j_max, others), axis=-1)
+    return np.stack([np.log(J[..., 0] / J[..., 1]), np.log(J[..., 1] / J[..., 2])], axis=-1)
+
+
+def rate_from_attitudes(q_IT_0, q_IT_1, dt_s: float, k) -> np.ndarray:
+    """Body rate ``ω_T`` (rad/s) at the second of two attitudes ``dt_s`` apart, for a body of inertia ratios ``k``.
+
+    ``q_IT_1 = q_IT_0 ⊗ δq`` (a body-frame rotation, eq. 28 integrated); the
+    rotation vector of ``δq`` over ``dt_s`` is the interval's mean body rate
+    ``ω̄`` — unambiguous only while the body turns less than π in ``dt_s``
+    (1.04 rad/s at 0.33 Hz: the paper's coverage drop). It is carried to the
+    interval's end with eq. 29: ``ω(t₁) ≈ ω̄ + (dt/2) ω̇(ω̄, k)``.
+    """
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
+    w_mean = quat_to_rotvec(quat_multiply(quat_conjugate(np.asarray(q_IT_0, dtype=float)), np.asarray(q_IT_1, dtype=float))) / dt_s
+    return w_mean + 0.5 * dt_s * euler_rhs(w_mean, _moments(np.asarray(k, dtype=float)))
+
+
 def error_mrp_noise_covariance(attitude_sigma_rad: float) -> np.ndarray:
     """``R`` (3×3, MRP²) of a measured error MRP whose attitude error is a body-frame rotation ``N(0, s² I)``.
 
@@ -95,7 +144,7 @@ def error_mrp_noise_covariance(attitude_sigma_rad: float) -> np.ndarray:
 def attitude_rhs_quat(x: np.ndarray) -> np.ndarray:
     """``ẋ`` of ``[q_IT (4), ω_T (3), k (2)]`` for a batch ``(..., 9)``: eq. 28 in quaternion form, eq. 29, ``k̇ = 0``."""
     w = x[..., 4:7]
-    J = np.stack([np.exp(x[..., 7]), np.ones_like(x[..., 7]), np.exp(-x[..., 8])], axis=-1)  # eq. 27
+    J = _moments(x[..., 7:9])
     return np.concatenate([quat_derivative(x[..., :4], w), euler_rhs(w, J), np.zeros_like(x[..., 7:9])], axis=-1)
 
 
@@ -124,9 +173,15 @@ class AttitudeUKF:
         the correction iterates only while the prior's largest 1-σ of ``k``
         exceeds this (the prediction's nonlinearity comes from ``k``; once
         it is known the plain UKF is accurate and 4× cheaper).
+    physical : bool
+        project every sigma point's ``k`` onto the rigid-body set before it is
+        propagated (:func:`project_k_physical`; the sigma-point projection of
+        Kandepu et al., J. Process Control 2008): a point several σ outside it
+        has Euler coefficients above 1 and a stiff, inaccurate propagation.
     """
 
-    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+    def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01,
+                 physical: bool = False, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (8,):
             raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")
@@ -144,6 +199,7 @@ class AttitudeUKF:
             raise ValueError(f"iterations must be a non-negative integer, got {iterations!r}")
         self.iterations = int(iterations)
         self.iterate_k_sd = float(iterate_k_sd)
+        self.physical = bool(physical)
         self._prior = None
         self._attitude_inn = None
         self.n_shadow_switches = 0
@@ -171,7 +227,8 @@ class AttitudeUKF:
 
     def _integrate(self, X: np.ndarray, dt: float, q_ref: np.ndarray) -> np.ndarray:
         """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → ``[q_IT, ω, k]`` (9 columns) after ``dt`` (eqs 28–29, RK4 substeps)."""
-        Y = np.concatenate([quat_multiply(q_ref, mrp_to_quat(X[:, SIGMA])), X[:, 3:]], axis=1)
+        k = project_k_physical(X[:, K]) if self.physical else X[:, K]
+        Y = np.concatenate([quat_multiply(q_ref, mrp_to_quat(X[:, SIGMA])), X[:, OMEGA], k], axis=1)
         w_max = float(np.max(np.linalg.norm(X[:, OMEGA], axis=1)))
         # a diverged filter's absurd rate must not stall the loop: at most 200 steps
         n_sub = min(max(1, int(np.ceil(dt / self.max_step_s)), int(np.ceil(w_max * dt / self.max_angle_rad))), 200)

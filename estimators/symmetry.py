@@ -92,6 +92,12 @@ class SymmetryDetector:
         self.detected = False
         self.detected_at: float | None = None
 
+    @property
+    def cleared(self) -> bool:
+        """At least 10 discrepancies counted and fewer than half of them above the threshold: the data so far do not point to a symmetry."""
+        d = np.asarray(self._d)
+        return d.size >= 10 and bool(np.mean(d > self.threshold_rad) < 0.5)
+
     def add(self, t: float, C_TI, dC_pred, sd_pred_rad: float = 0.0) -> SymmetryCheck | None:
         """Feed a measured ``C_TI`` at ``t`` with the filter's predicted relative rotation ``dC_pred``.
 
