@@ -48,7 +48,8 @@ def _translational_pair(n: int) -> tuple[np.ndarray, np.ndarray]:
     P0 = np.diag([14.4] * 3 + [1.6e-5] * 3)
     R = 1.44 * np.eye(3)
     ours = TranslationalUKF(x0, P0, n_rad_s=N_RAD_S, R_t_m=R_T_M)
-    ref = UnscentedKalmanFilter(6, 3, dt, hx=lambda x: x[:3], fx=lambda x, dt: rk4_step(nerm_rhs, 0.0, x, dt, N_RAD_S, R_T_M), points=MerweScaledSigmaPoints(6, alpha=1.0, beta=2.0, kappa=0.0))
+    ref = UnscentedKalmanFilter(6, 3, dt, hx=lambda x: x[:3], fx=lambda x, dt: rk4_step(nerm_rhs, 0.0, x, dt, N_RAD_S, R_T_M),
+                                points=MerweScaledSigmaPoints(6, alpha=1.0, beta=2.0, kappa=0.0))
     ref.x, ref.P, ref.R = x0.copy(), P0.copy(), R
     t_ours, t_ref = np.zeros(n), np.zeros(n)
     for i in range(n):
@@ -99,7 +100,8 @@ def run() -> str:
     lines = [
         "## CoMBiNa per-iteration time (simulated chain)",
         "",
-        f"{N_ITER} iterations at {RATE_HZ} Hz of the Maestrini et al. §VI scenario (`studies.sim.combina.run_combina`); times in ms, percentiles as in Fig. 19 of Maestrini et al.",
+        f"{N_ITER} iterations at {RATE_HZ} Hz of the Maestrini et al. §VI scenario (`studies.sim.combina.run_combina`); "
+        "times in ms, percentiles as in Fig. 19 of Maestrini et al.",
         "One iteration = simulated BCPD-like registration + prediction + gates + update of both filters + symmetry check.",
         "",
         "| chain | p50 | p90 | p99 | p99.9 | max |",
@@ -108,7 +110,8 @@ def run() -> str:
         _row(f"symmetric target, switches to axisymmetric mode at {sym.switch_time_s:.0f} s ({sym.iteration_s.size} it.)", sym.iteration_s),
         _row("translational UKF alone (predict + update), lcnav", t_ours),
         _row("translational UKF alone, filterpy `UnscentedKalmanFilter` (baseline)", t_ref),
-        _row(f"rendered chain, BCPD registration only (eqs 3–8; {N_ITER} registrations of 20 box-wing clouds, median {n_pts:.0f} points, 3000-point model)", t_reg),
+        _row(f"rendered chain, BCPD registration only (eqs 3–8; {N_ITER} registrations of 20 box-wing clouds, "
+             f"median {n_pts:.0f} points, 3000-point model)", t_reg),
         _row(f"rendered chain, full iteration: 512 px stereo render + cloud + registration + filters ({rend.iteration_s.size} it.)", rend.iteration_s),
         "",
         f"Median ratio lcnav / filterpy for the translational UKF: {med_ratio:.2f}. "

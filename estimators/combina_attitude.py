@@ -30,7 +30,8 @@ How the attitude is carried (the paper's global MRP fails on fast tumblers):
   ``|σ| = 1`` (``q̂``'s scalar part changed sign), the event eqs 31–32 handle.
 * **Integration step.** RK4 with a step of at most ``max_step_s`` *and* at
   most ``max_angle_rad`` of rotation at the sigma points' largest rate
-  (0.1 rad by default: about 1e-5 rad of attitude error after 100 predictions of 3 s at 1.2 rad/s, ``tests/estimators/test_combina_attitude.py``). The paper-era setting, one RK4 step per 3 s
+  (0.1 rad by default: about 1e-5 rad of attitude error after 100 predictions of 3 s at 1.2 rad/s,
+  ``tests/estimators/test_combina_attitude.py``). The paper-era setting, one RK4 step per 3 s
   prediction, loses the attitude above ~0.3 rad/s.
 * **Process noise** (the paper has ``Q = 0``): ``Q`` per prediction, e.g.
   :func:`attitude_process_noise` (see there).
@@ -298,7 +299,8 @@ class AttitudeUKF:
         switched to its shadow set (eqs 31–32's event).
         """
         pending = getattr(self, "_attitude_inn", None)
-        if self.iterations > 0 and pending is not None and pending[0] is inn and self._prior is not None and np.sqrt(np.max(np.diag(self._prior[1])[K])) > self.iterate_k_sd:
+        k_uncertain = self._prior is not None and np.sqrt(np.max(np.diag(self._prior[1])[K])) > self.iterate_k_sd
+        if self.iterations > 0 and pending is not None and pending[0] is inn and k_uncertain:
             self._attitude_inn = None
             return self._correct_iterated(inn.z, pending[1])
         self.core.correct(inn)

@@ -128,7 +128,8 @@ class AxisymmetricUKF:
         x0 = np.asarray(x0, dtype=float)
         n = 3 if C_GammaI is not None else 6
         if x0.shape != (n,):
-            raise ValueError(f"x0 must have shape ({n},) {'[phi, delta, gamma_over_a]' if n == 3 else '[phi, delta, gamma_over_a, sigma_IGamma]'}, got {x0.shape}")
+            layout = "[phi, delta, gamma_over_a]" if n == 3 else "[phi, delta, gamma_over_a, sigma_IGamma]"
+            raise ValueError(f"x0 must have shape ({n},) {layout}, got {x0.shape}")
         if not (np.isfinite(max_step_s) and max_step_s > 0):
             raise ValueError(f"max_step_s must be positive and finite, got {max_step_s!r}")
         self.C_GammaI = None if C_GammaI is None else np.asarray(C_GammaI, dtype=float)

@@ -65,7 +65,8 @@ class TranslationalUKF:
         additive process noise per prediction (the paper uses none).
     """
 
-    def __init__(self, x0_L, P0, *, n_rad_s: float, R_t_m: float, mu: float = MU_EARTH, units: ScaledUnits = SI_UNITS, max_step_s: float = 10.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+    def __init__(self, x0_L, P0, *, n_rad_s: float, R_t_m: float, mu: float = MU_EARTH, units: ScaledUnits = SI_UNITS,
+                 max_step_s: float = 10.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         for name, v in (("n_rad_s", n_rad_s), ("R_t_m", R_t_m), ("max_step_s", max_step_s)):
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")

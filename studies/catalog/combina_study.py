@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from estimators.symmetry import SymmetryDetector
-from studies.sim.combina import COMPONENT_SI, FILTER_COMPONENTS, SOURCES, TARGETS, TU, CombinaConfig, component_errors, run_combina, run_metrics
+from studies.sim.combina import COMPONENT_SI, FILTER_COMPONENTS, SOURCES, COMBINA_TARGETS, TU, CombinaConfig, component_errors, run_combina, combina_metrics
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path, write_table
@@ -46,7 +46,7 @@ from studies.engine.tables import Table
 TITLE = "CoMBiNa convergence and symmetry detection (Maestrini et al. §VI, Figs 10, 11, 14-17), over seeds"
 
 FIELDS: dict[str, Field] = {
-    "targets": Field("list[str]", "Targets: asymmetric (box-wing, eq. 47) and/or symmetric (rocket body).", choices=TARGETS),
+    "targets": Field("list[str]", "Targets: asymmetric (box-wing, eq. 47) and/or symmetric (rocket body).", choices=COMBINA_TARGETS),
     "n_seeds": Field("int", "Seeds per target (initial estimate drawn from P_0 and measurement noise).", ge=1),
     "duration_TU": Field("float", "Simulated time per run in TU (1 TU = 963.65 s).", gt=0),
     "measurement_period_s": Field("float", "Time between two pose measurements, s.", gt=0),
@@ -92,7 +92,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     cfg = CombinaConfig(target=p["target"], measurements=p["measurements"], duration_tu=p["duration_TU"],
                         rate_hz=1.0 / p["measurement_period_s"], seed=spec.seed)
     run = run_combina(cfg)
-    m = run_metrics(run)
+    m = combina_metrics(run)
     write_table(workdir / "errors.parquet", errors_frame(run))
     write_table(workdir / "symmetry.parquet", pd.DataFrame({
         "t_s": [c.t for c in run.symmetry], "discrepancy_rad": [c.discrepancy_rad for c in run.symmetry]}))

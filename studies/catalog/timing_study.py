@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from studies.catalog.figures import pyplot, save_png
-from studies.sim.combina import TARGETS, TU, CombinaConfig, run_combina
+from studies.sim.combina import COMBINA_TARGETS, TU, CombinaConfig, run_combina
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import write_table
@@ -44,7 +44,7 @@ TITLE = "CoMBiNa per-iteration time (Maestrini et al. §VII, Fig. 19) on this ma
 PARTS = {"filter_s": "prediction + update", "registration_s": "registration", "total_s": "iteration"}
 
 FIELDS: dict[str, Field] = {
-    "targets": Field("list[str]", "Targets whose runs are timed.", choices=TARGETS, default=["asymmetric"]),
+    "targets": Field("list[str]", "Targets whose runs are timed.", choices=COMBINA_TARGETS, default=["asymmetric"]),
     "n_iterations": Field("int", "Timed iterations in all (Maestrini et al. §VII: 1000), shared by the seeds.", ge=1),
     "n_seeds": Field("int", "Trajectories (runs) the iterations are sampled from, per target.", ge=1),
     "measurement_period_s": Field("float", "Time between two measurements, s.", gt=0, default=3.0),

@@ -1,6 +1,6 @@
 """``lcnav combina``: run the CoMBiNa closed loop and write its files.
 
-``DIR/metrics.json`` (see :func:`studies.sim.combina.run_metrics`),
+``DIR/metrics.json`` (see :func:`studies.sim.combina.combina_metrics`),
 ``DIR/states.parquet`` (one row per measurement epoch: truth, estimates, 1-σ,
 measurement, gate decisions) and ``DIR/combina.rrd`` (the same as time series
 on the ``sim_time`` timeline, plus the 3-D relative trajectory, measured
@@ -18,7 +18,7 @@ import typer
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
 from studies.recording.combina import states_table, write_recording
-from studies.sim.combina import CombinaConfig, run_combina, run_metrics
+from studies.sim.combina import CombinaConfig, run_combina, combina_metrics
 
 #: Most measurement epochs of one run (duration × rate): a bound on the work one command may ask for.
 MAX_EPOCHS = 10**5
@@ -31,7 +31,7 @@ def run_command(cfg: CombinaConfig, out: Path) -> dict:
     if cfg.effective_duration_s * cfg.rate_hz > MAX_EPOCHS:
         v.fail("--duration-tu × --rate-hz", f"{cfg.effective_duration_s * cfg.rate_hz:g}", f"at most {MAX_EPOCHS} measurements")
     run = run_combina(cfg)
-    metrics = run_metrics(run)
+    metrics = combina_metrics(run)
     with output_folder(out, "combina") as stage:
         write_table(stage / "states.parquet", states_table(run))
         write_recording(stage / "combina.rrd", run)

@@ -89,12 +89,15 @@ def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = N
         t = np.array([s.t for s in run.steps])  # the measurement epochs (truth.t may differ in the last bit)
         send_poses(rec, "/truth/target", t, run.truth.r_L, run.truth.q_IT)
         nom = np.array([s.mode == "nominal" for s in run.steps])
-        send_poses(rec, "/estimate/attitude/target", t[nom], np.array([s.x_s[:3] for s in run.steps])[nom], mrp_to_quat(np.array([s.x_a[:3] for s in run.steps])[nom]))
+        send_poses(rec, "/estimate/attitude/target", t[nom], np.array([s.x_s[:3] for s in run.steps])[nom],
+                   mrp_to_quat(np.array([s.x_a[:3] for s in run.steps])[nom]))
         rr.send_columns("/truth/r_L", indexes=[time_column(t)], columns=rr.Points3D.columns(positions=run.truth.r_L).partition(ones(t.size)), recording=rec)
         est = np.array([s.x_s[:3] for s in run.steps])
-        rr.send_columns("/estimate/translation/r_L", indexes=[time_column(t)], columns=rr.Points3D.columns(positions=est).partition(ones(t.size)), recording=rec)
+        rr.send_columns("/estimate/translation/r_L", indexes=[time_column(t)], columns=rr.Points3D.columns(positions=est).partition(ones(t.size)),
+                        recording=rec)
         mt = np.array([m.t for m in run.measurements])
-        rr.send_columns("/measurement/r_L", indexes=[time_column(mt)], columns=rr.Points3D.columns(positions=np.array([m.r_L for m in run.measurements])).partition(ones(mt.size)), recording=rec)
+        measured = rr.Points3D.columns(positions=np.array([m.r_L for m in run.measurements])).partition(ones(mt.size))
+        rr.send_columns("/measurement/r_L", indexes=[time_column(mt)], columns=measured, recording=rec)
         send_scalars(rec, "/measurement/scale", mt, np.array([m.scale for m in run.measurements]))
         for m in run.measurements:  # rendered chain: measured cloud and the model at the measured pose (p_L = r_L + C_LT p_T)
             if m.cloud_L is None:
@@ -108,7 +111,8 @@ def write_recording(path: Path, run: CombinaRun, *, recording_id: str | None = N
             if not np.isnan(g.e2):
                 rec.log(f"/gate/{g.source}/e2", rr.Scalars(g.e2))
             if not g.accepted:
-                rec.log(f"/gate/{g.source}/events", rr.TextLog(f"rejected: {g.reason} (e2={g.e2:.3g}, bounds [{g.lower:.3g}, {g.upper:.3g}])", level=rr.TextLogLevel.WARN))
+                text = f"rejected: {g.reason} (e2={g.e2:.3g}, bounds [{g.lower:.3g}, {g.upper:.3g}])"
+                rec.log(f"/gate/{g.source}/events", rr.TextLog(text, level=rr.TextLogLevel.WARN))
         if run.symmetry:
             send_scalars(rec, "/estimate/symmetry/discrepancy_rad", [c.t for c in run.symmetry], [c.discrepancy_rad for c in run.symmetry])
         t_it = t[1 : 1 + run.iteration_s.size]

@@ -64,12 +64,13 @@ from typing import Protocol
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
+from estimators.combina_attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
 from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina_gates import mahalanobis_gate, scale_gate
 from estimators.combina_translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import euler_rhs, inertia_from_k, lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
+from estimators.prior import BodyRatePrior
 from estimators.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
 from lightcurves.targets import get_target
@@ -89,7 +90,7 @@ MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
 SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
 R_SCALED = 0.01  # R_s = R_a
-TARGETS = tuple(K_TARGETS)
+COMBINA_TARGETS = tuple(K_TARGETS)
 #: Consecutive Mahalanobis rejections after which a filter's covariance is reset to its P_0 (divergence recovery).
 #: With R equal to the registration noise, one outlier accepted while P_0 is wide (a 66° misregistration at
 #: the first epoch) locks the filter onto it: every later measurement is rejected. A consistent filter rejects
@@ -140,8 +141,8 @@ class CombinaConfig:
     quick: bool = False
 
     def validate(self) -> None:
-        if self.target not in TARGETS:
-            raise ValueError(f"target must be one of {'|'.join(TARGETS)}, got {self.target!r}")
+        if self.target not in COMBINA_TARGETS:
+            raise ValueError(f"target must be one of {'|'.join(COMBINA_TARGETS)}, got {self.target!r}")
         if self.measurements not in SOURCES:
             raise ValueError(f"measurements must be one of {'|'.join(SOURCES)}, got {self.measurements!r}")
         if not (np.isfinite(self.duration_tu) and self.duration_tu > 0):
@@ -176,7 +177,7 @@ class CombinaConfig:
 
 
 @dataclass(frozen=True)
-class Truth:
+class LvlhTruth:
     """True relative translation (LVLH) and target attitude at the measurement epochs."""
 
     t: np.ndarray  #: (N,) s
@@ -196,7 +197,7 @@ def target_k(target: str, measurements: str = "simulated") -> np.ndarray:
     return K_TARGETS[target].copy()
 
 
-def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None) -> Truth:
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None) -> LvlhTruth:
     """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH.
 
     ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`);
@@ -215,7 +216,7 @@ def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, 
     w_L = np.array([0.0, 0.0, N_RAD_S])
     r_L = np.einsum("nij,nj->ni", C_LI, g[:, 0:3] - s[:, 0:3])
     v_L = np.einsum("nij,nj->ni", C_LI, g[:, 3:6] - s[:, 3:6]) - np.cross(w_L, r_L)  # transport theorem
-    return Truth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=k, J_T=tr.J_T_diag, C_LI=C_LI)
+    return LvlhTruth(t=tr.t, r_L=r_L, v_L=v_L, q_IT=g[:, 6:10], w_T=g[:, 10:13], k=k, J_T=tr.J_T_diag, C_LI=C_LI)
 
 
 def angular_momentum_I(q_IT, w_T, J_T) -> np.ndarray:
@@ -253,7 +254,7 @@ class CombinaRun:
     """A finished run: truth, measurements, per-step estimates and every gate decision."""
 
     config: CombinaConfig
-    truth: Truth
+    truth: LvlhTruth
     measurements: list[RegisteredPose]
     steps: list[Step]
     gates: list[GateDecision]
@@ -266,14 +267,15 @@ class CombinaRun:
     reacquisitions: int = 0  #: times the attitude filter was restarted from the measurements (:meth:`_ClosedLoop.reacquire`)
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
-    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
+    #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
+    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _nan(n):
     return np.full(n, np.nan)
 
 
-def make_source(cfg: CombinaConfig, rng: np.random.Generator, truth: Truth) -> MeasurementSource:
+def make_source(cfg: CombinaConfig, rng: np.random.Generator, truth: LvlhTruth) -> MeasurementSource:
     """The measurement source named by ``cfg.measurements`` (rendered: smaller images with ``--quick``)."""
     if cfg.measurements == "rendered":
         from studies.sim.combina_rendered import RenderedBCPD  # Mitsuba loads only when asked for
@@ -283,7 +285,7 @@ def make_source(cfg: CombinaConfig, rng: np.random.Generator, truth: Truth) -> M
     return SimulatedBCPD(rng, symmetry_axis_T=axis)
 
 
-def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, truth: Truth | None = None) -> CombinaRun:
+def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, truth: LvlhTruth | None = None) -> CombinaRun:
     """Run the closed loop of §VI for ``cfg`` (validated first)."""
     cfg.validate()
     # Separate streams: the measurements of a seed do not depend on how the filter is initialised.
@@ -302,7 +304,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     return loop.result()
 
 
-def _initial_estimates(cfg: CombinaConfig, truth: Truth, rng: np.random.Generator):
+def _initial_estimates(cfg: CombinaConfig, truth: LvlhTruth, rng: np.random.Generator):
     """``(x0_s, P0_s, x0_a, P0_a, prior_rate)``: the initial estimates drawn from ``P_0`` (eq. 48), SI, and the spin prior's rate (or None)."""
     Ds = UNITS.state_scale()
     P0_s = P0_SCALED * np.diag(Ds**2)
@@ -312,12 +314,22 @@ def _initial_estimates(cfg: CombinaConfig, truth: Truth, rng: np.random.Generato
     x0_a = np.concatenate([quat_to_mrp(truth.q_IT[0]), truth.w_T[0], truth.k]) + Da * np.sqrt(P0_SCALED) * rng.normal(size=8)
     prior_rate = None
     if cfg.prior != "none":
-        # the prior's error is drawn from the truth; its stated uncertainty uses only the prior itself
-        w_norm0 = float(np.linalg.norm(truth.w_T[0]))
-        x0_a[3:6] = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)  # |error| ≈ prior_error |ω|
-        prior_rate = float(np.linalg.norm(x0_a[3:6]))  # the same prior, as a rate
-        P0_a[3:6, 3:6] = (cfg.prior_error * prior_rate) ** 2 / 3.0 * np.eye(3)
+        prior = _spin_prior(cfg, truth, rng)
+        x0_a[OMEGA] = prior.w_T_T_rad_s
+        prior_rate = float(np.linalg.norm(prior.w_T_T_rad_s))  # the same prior, as a rate
+        P0_a[OMEGA, OMEGA] = np.diag(prior.sigma_rad_s**2)
     return x0_s, P0_s, x0_a, P0_a, prior_rate
+
+
+def _spin_prior(cfg: CombinaConfig, truth: LvlhTruth, rng: np.random.Generator) -> BodyRatePrior:
+    """The spin prior of a run: ``ω_T(0)`` off by a random error of size ``prior_error |ω|`` (isotropic).
+
+    Its error is drawn from the truth; its stated 1-σ, ``prior_error |ω̂| / √3`` per axis, uses only the prior itself.
+    """
+    w_norm0 = float(np.linalg.norm(truth.w_T[0]))
+    w = truth.w_T[0] + cfg.prior_error * w_norm0 / np.sqrt(3.0) * rng.normal(size=3)
+    sigma = cfg.prior_error * float(np.linalg.norm(w)) / np.sqrt(3.0)
+    return BodyRatePrior(w, np.full(3, sigma), source=f"truth, {100 * cfg.prior_error:g} % isotropic error")
 
 
 def _measurement_noise(source: MeasurementSource):
@@ -337,7 +349,7 @@ def _measurement_noise(source: MeasurementSource):
 class _ClosedLoop:
     """One run's filters, gates and symmetry tests, and what they recorded; :meth:`iterate` processes one measurement."""
 
-    def __init__(self, cfg: CombinaConfig, truth: Truth, source: MeasurementSource, rng: np.random.Generator):
+    def __init__(self, cfg: CombinaConfig, truth: LvlhTruth, source: MeasurementSource, rng: np.random.Generator):
         self.cfg, self.truth, self.source, self.rng = cfg, truth, source, rng
         x0_s, self.P0_s, x0_a, self.P0_a, self.prior_rate = _initial_estimates(cfg, truth, rng)
         self.R_s, self.R_axis, self.R_a = _measurement_noise(source)
@@ -547,7 +559,7 @@ def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
     return quat_multiply(rotvec_to_quat(ang * axis), q_ref)
 
 
-def _start_axisymmetric(cfg: CombinaConfig, truth: Truth, i: int, m: RegisteredPose, att: AttitudeUKF, rng: np.random.Generator):
+def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, m: RegisteredPose, att: AttitudeUKF, rng: np.random.Generator):
     """Initialise the axisymmetric filter at the switch (§V.C).
 
     ``I_Γ`` is built about the true angular momentum (the paper's known-input
@@ -676,7 +688,7 @@ def component_metrics(t, err, sd, tol_si: float) -> dict:
     }
 
 
-def run_metrics(run: CombinaRun) -> dict:
+def combina_metrics(run: CombinaRun) -> dict:
     """The ``metrics.json`` content of a run (see the issue's command-line section)."""
     comps = {name: component_metrics(t, e, s, TOLERANCES[name] * COMPONENT_SI[name]) for name, (t, e, s) in component_errors(run).items()}
     counts = {"accepted": 0, "rejected_scale": 0, "rejected_mahalanobis": 0}
@@ -716,6 +728,7 @@ def run_metrics(run: CombinaRun) -> dict:
         last = run.steps[-1]
         J_true = quat_to_dcm(run.truth.q_IT[-1])[:, 1]
         out["axis_error_deg"] = float(np.rad2deg(np.arccos(np.clip(J_true @ last.axis_I, -1.0, 1.0))))
-        out["spin_quantities"] = {"e_rad_s": float(last.spin_e[0]), "e_sd_rad_s": float(last.spin_sd[0]), "wy_over_a_sq": float(last.spin_e[1]), "wy_over_a_sq_sd": float(last.spin_sd[1])}
+        out["spin_quantities"] = {"e_rad_s": float(last.spin_e[0]), "e_sd_rad_s": float(last.spin_sd[0]),
+                                  "wy_over_a_sq": float(last.spin_e[1]), "wy_over_a_sq_sd": float(last.spin_sd[1])}
     return out
 

@@ -11,7 +11,7 @@ import pytest
 from estimators.dynamics import integrate_truth, nerm_rhs
 from scipy.stats import chi2
 
-from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, filter_nees, run_combina, run_metrics, simulate_lvlh_truth
+from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, component_errors, filter_nees, run_combina, combina_metrics, simulate_lvlh_truth
 
 SEEDS = range(10)
 DT = 1.0 / 0.33
@@ -27,7 +27,7 @@ def _runs(truths, target, prior):
     out = []
     for seed in SEEDS:
         run = run_combina(CombinaConfig(target=target, seed=seed, prior=prior), truth=truths[target])
-        out.append((run, run_metrics(run)))
+        out.append((run, combina_metrics(run)))
     return out
 
 
@@ -135,7 +135,7 @@ def test_proxy_rate_replaces_rejected_measurements(truths):
     nees = []
     for seed in range(3):
         run = run_combina(CombinaConfig(target="asymmetric", seed=seed, prior="proxy"), truth=truths["asymmetric"])
-        m = run_metrics(run)
+        m = combina_metrics(run)
         rejected = m["gate_counts"]["by_filter"]["attitude"]
         assert run.proxy_updates == rejected["rejected_scale"] + rejected["rejected_mahalanobis"] > 0
         for name in ("sigma", "w"):
@@ -148,7 +148,7 @@ def test_axisymmetric_variant_estimating_the_frame(truths):
     """The variant that also estimates σ_IΓ (frame started 5° off, 1-σ per axis) still ends below 5°."""
     for seed in range(3):
         run = run_combina(CombinaConfig(target="symmetric", seed=seed, axis_frame="estimated"), truth=truths["symmetric"])
-        m = run_metrics(run)
+        m = combina_metrics(run)
         assert m["symmetry_detected"] and m["axis_error_deg"] < 5.0
         t, e, sd = component_errors(run)["gamma_over_a"]
         assert abs(e[-1, 0]) <= 3 * sd[-1, 0]
