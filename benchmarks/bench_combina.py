@@ -21,7 +21,7 @@ import time
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from estimators.combina_translation import TranslationalUKF
+from estimators.combina.translation import TranslationalUKF
 from estimators.dynamics import nerm_rhs, rk4_step
 from estimators.attitude import quat_multiply, quat_to_dcm, rotvec_to_quat
 from lightcurves.targets import get_target

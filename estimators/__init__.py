@@ -2,8 +2,8 @@
 
 Notebook use: build a filter from a named tuning and step it with ``predict`` and ``update``
 (:mod:`estimators.ekf`, :mod:`estimators.ukf`); the CoMBiNa filters are
-:mod:`estimators.combina_translation`, :mod:`estimators.combina_attitude` and
-:mod:`estimators.combina_axisymmetric`. :mod:`estimators.attitude` holds the
+:mod:`estimators.combina.translation`, :mod:`estimators.combina.attitude` and
+:mod:`estimators.combina.axisymmetric`. :mod:`estimators.attitude` holds the
 attitude maths every package shares (pure functions, no state).
 
 References

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from estimators.symmetry import SymmetryDetector
+from estimators.combina.symmetry import SymmetryDetector
 from studies.sim.combina import COMPONENT_SI, FILTER_COMPONENTS, SOURCES, COMBINA_TARGETS, TU, CombinaConfig, component_errors, run_combina, combina_metrics
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig

@@ -34,7 +34,7 @@ import pandas as pd
 from scipy.stats import chi2
 
 from estimators.attitude import attitude_angle, mrp_to_quat, random_quaternion
-from estimators.combina_attitude import physical_k
+from estimators.combina.attitude import physical_k
 from studies.sim.combina import TU, CombinaConfig, filter_nees, run_combina, simulate_lvlh_truth
 from studies.recording.combina import write_recording
 from studies.engine.config import ConfigError, Field, StudyConfig
@@ -112,7 +112,7 @@ def converged_last(nees: dict, t_last_s: float, confidence: float, *, joint: boo
 
 
 def draw_inertia_ratios(rng: np.random.Generator, k_range, physical: bool) -> np.ndarray:
-    """``k1, k2 ~ U(k_range)²``; with ``physical``, redrawn until they are a rigid body's (:func:`estimators.combina_attitude.physical_k`)."""
+    """``k1, k2 ~ U(k_range)²``; with ``physical``, redrawn until they are a rigid body's (:func:`estimators.combina.attitude.physical_k`)."""
     for _ in range(1000):
         k = rng.uniform(*k_range, size=2)
         if not physical or physical_k(k):

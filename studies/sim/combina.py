@@ -12,7 +12,7 @@ BCPD: 0.3 m per axis, 2° per axis, i.e. ``R_a = (2°/4)² I`` on the error MRP)
 the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
 4× and 11× the simulated noise) is kept only for the rendered chain, whose
 noise is not modelled. Attitude process noise:
-:func:`estimators.combina_attitude.attitude_process_noise`. A filter that
+:func:`estimators.combina.attitude.attitude_process_noise`. A filter that
 rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
 covariance reset to ``P_0`` (divergence recovery). An attitude filter that has
 lost the target (its rate less certain than two consecutive measurements make
@@ -22,10 +22,10 @@ measured attitudes (:meth:`_ClosedLoop.reacquire`): at fast rates a wrong ``k``
 turns one 3 s prediction by tens of degrees, the Gaussian posterior can lock
 onto a wrong (ω, k) mode, and the ``P_0`` reset keeps that mean.
 
-Symmetry: the temporal test of §IV.C (:class:`estimators.symmetry.SymmetryDetector`,
+Symmetry: the temporal test of §IV.C (:class:`estimators.combina.symmetry.SymmetryDetector`,
 fed the filter's integrated relative-rotation prediction and its uncertainty)
 on every source; on the rendered chain also the geometric roll test
-(:class:`estimators.symmetry.RollSymmetryTest` over ``ROLL_WINDOW`` clouds),
+(:class:`estimators.combina.symmetry.RollSymmetryTest` over ``ROLL_WINDOW`` clouds),
 because a registration seeded by the prediction echoes the filter's roll and
 hides the symmetry from the temporal test.
 
@@ -64,14 +64,14 @@ from typing import Protocol
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina_attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
-from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
-from estimators.combina_gates import mahalanobis_gate, scale_gate
-from estimators.combina_translation import ScaledUnits, TranslationalUKF
+from estimators.combina.attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
+from estimators.combina.axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
+from estimators.combina.gates import mahalanobis_gate, scale_gate
+from estimators.combina.translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import euler_rhs, inertia_from_k, lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
 from estimators.prior import BodyRatePrior
-from estimators.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
+from estimators.combina.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
 from lightcurves.targets import get_target
 from studies.sim.scenarios import LU_COMBINA_M, TU_COMBINA_S, get_scenario
@@ -96,10 +96,10 @@ COMBINA_TARGETS = tuple(K_TARGETS)
 #: the first epoch) locks the filter onto it: every later measurement is rejected. A consistent filter rejects
 #: 5 good measurements in a row with probability 1e-10, and 5 outliers in a row occur with probability 3e-7.
 MAX_CONSECUTIVE_REJECTIONS = 5
-#: Iterations of the attitude filter's posterior-linearised correction while k is uncertain (:meth:`estimators.combina_attitude.AttitudeUKF.correct`):
+#: Iterations of the attitude filter's posterior-linearised correction while k is uncertain (:meth:`estimators.combina.attitude.AttitudeUKF.correct`):
 #: on 10 random ICs per level (0.05 orbit, seeds outside the coverage study's) converged 7/10 at 0.6 rad/s and 2/10 at 0.9 (plain UKF: 4/10, 0/10).
 ATT_ITERATIONS = 3
-#: Sigma points' k projected onto the rigid-body set before propagation (:class:`estimators.combina_attitude.AttitudeUKF`): off.
+#: Sigma points' k projected onto the rigid-body set before propagation (:class:`estimators.combina.attitude.AttitudeUKF`): off.
 #: Measured on 10 ICs each at 0.6/0.75/0.9 rad/s (development seed 1234, 0.1 orbit, rigid-body truths): 22/30 converged
 #: (per-epoch rule) against 21/30 without it, within noise; but on the slow eq. 47 target, whose k is weakly observable,
 #: clipping every prediction biases k towards the set's interior (seed 5: k inside 3σ on 25 % of the steps, ω on 2 %).
@@ -467,7 +467,7 @@ class _ClosedLoop:
         """``(ω, 1-σ per axis)`` at the last measurement from the last two measured attitudes; None unless the last three are
         consecutive and the two rates they give agree within 3σ (an outlier or an axisymmetric target's random roll makes them disagree).
 
-        :func:`estimators.combina_attitude.rate_from_attitudes` with the current ``k̂``; 1-σ
+        :func:`estimators.combina.attitude.rate_from_attitudes` with the current ``k̂``; 1-σ
         ``√2 σ_att/Δt`` (two measurements) plus ``0.1 Δt |ω|²``: the RMS error per axis of the eq. 29
         extrapolation with ``k`` uncertain by ``P_0``'s 1-σ (0.3), measured on 60 random rigid bodies at 0.3–0.9 rad/s
         (0.07–0.09 Δt |ω|²; 0.01–0.03 with the true ``k``).
@@ -600,7 +600,7 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, m: Registe
 def mrp_error(sigma_est, q_true) -> np.ndarray:
     """Body-frame error MRP of the estimate, ``δσ`` with ``q̂ = q_true ⊗ q(δσ)`` (``|δσ| ≤ 1``).
 
-    The attitude filter's covariance is that of this error (:class:`estimators.combina_attitude.AttitudeUKF`).
+    The attitude filter's covariance is that of this error (:class:`estimators.combina.attitude.AttitudeUKF`).
     """
     return quat_to_mrp(quat_multiply(quat_conjugate(q_true), mrp_to_quat(sigma_est)))
 

@@ -5,8 +5,8 @@ import pytest
 from scipy.stats import chi2
 
 from estimators.attitude import attitude_angle, mrp_to_quat, quat_conjugate, quat_multiply, quat_to_mrp, quat_to_rotvec, rotvec_to_quat
-import estimators.combina_attitude as ca
-from estimators.combina_attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k, project_k_physical, rate_from_attitudes
+import estimators.combina.attitude as ca
+from estimators.combina.attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k, project_k_physical, rate_from_attitudes
 from estimators.dynamics import inertia_from_k, integrate_absolute
 
 K = np.array([0.03, -0.1])

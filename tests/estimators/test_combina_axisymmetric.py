@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimators.attitude import quat_to_dcm, random_quaternion, rotvec_to_quat, quat_multiply
-from estimators.combina_axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, spin_quantities, wrap_pi
+from estimators.combina.axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, spin_quantities, wrap_pi
 from estimators.dynamics import axis_from_spherical, integrate_absolute, spherical_from_axis
 
 J_AXI = np.array([4.0, 1.0, 4.0])  # A = C = 4, B = 1: symmetry axis = body y

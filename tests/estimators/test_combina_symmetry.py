@@ -5,7 +5,7 @@ import pytest
 
 from estimators.attitude import dcm_angle, quat_multiply, quat_to_dcm, random_quaternion, rotvec_to_quat
 from estimators.dynamics import inertia_from_k, integrate_absolute
-from estimators.symmetry import RollSymmetryTest, SymmetryDetector, cloud_in_model_frame, roll_self_registration
+from estimators.combina.symmetry import RollSymmetryTest, SymmetryDetector, cloud_in_model_frame, roll_self_registration
 from lightcurves.targets import get_target
 from perception.model import mesh_surface_points
 

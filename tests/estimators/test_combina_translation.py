@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from filterpy.kalman import MerweScaledSigmaPoints
 
-from estimators.combina_gates import mahalanobis_gate, scale_gate
-from estimators.combina_translation import ScaledUnits, TranslationalUKF
-from estimators.combina_unscented import UnscentedCore
+from estimators.combina.gates import mahalanobis_gate, scale_gate
+from estimators.combina.translation import ScaledUnits, TranslationalUKF
+from estimators.combina.unscented import UnscentedCore
 from estimators.dynamics import MU_EARTH, R_EARTH, integrate_truth, nerm_rhs
 from scipy.stats import chi2
 

@@ -9,7 +9,7 @@ the symmetry: rolled by 90/180/270° about the body y axis they still lie on the
 import numpy as np
 import pytest
 
-from estimators.symmetry import RollSymmetryTest
+from estimators.combina.symmetry import RollSymmetryTest
 from studies.sim.combina import ROLL_WINDOW, CombinaConfig, run_combina
 
 pytestmark = pytest.mark.slow

@@ -70,7 +70,7 @@ def test_joint_rule_is_the_bonferroni_quantile_of_the_window():
 
 
 def test_physical_draws_are_rigid_bodies_in_the_box():
-    from estimators.combina_attitude import physical_k
+    from estimators.combina.attitude import physical_k
     from studies.catalog.coverage_study import draw_inertia_ratios
 
     rng = np.random.default_rng(4)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from estimators.combina_unscented import Innovation
+from estimators.combina.unscented import Innovation
 from estimators.gates import GateDecision, chi_square_gate
 
 SCALE_BOUNDS = (0.8, 1.2)

@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_derivative, quat_multiply, quat_normalize, quat_to_mrp, quat_to_rotvec
-from estimators.combina_unscented import Innovation, UnscentedCore
+from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import euler_rhs
 
 #: Layout of the attitude state.

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from estimators.attitude import dcm_to_mrp, mrp_to_dcm
-from estimators.combina_unscented import Innovation, UnscentedCore
+from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import axis_from_spherical, axisymmetric_rhs, spherical_from_axis
 
 

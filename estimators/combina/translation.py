@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from estimators.combina_unscented import Innovation, UnscentedCore
+from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
 
 
