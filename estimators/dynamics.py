@@ -22,6 +22,13 @@ few dozen 3-vector operations, where numpy's fixed cost of about a microsecond
 per small-array operation would dominate. Compiled, one evaluation inside the
 RK4 loop costs about 1.4 µs and 30 000 steps about 0.17 s
 (``benchmarks/RESULTS.md``). It is the only implementation (no numpy twin).
+
+References
+----------
+.. [1] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
+.. [2] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

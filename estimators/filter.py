@@ -18,6 +18,13 @@ covariance). Two verbs:
 A step whose result would hold NaN or Inf is refused with
 :class:`NonFiniteError` and the filter is left as it was; so is a
 measurement with NaN/Inf in it.
+
+References
+----------
+.. [1] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
+.. [2] Bar-Shalom, Li, Kirubarajan, *Estimation with Applications to Tracking and Navigation*, Wiley,
+   2001, §5.4 (NEES and NIS tests).
 """
 
 from __future__ import annotations

@@ -5,6 +5,11 @@ name); :func:`run_navigation` drives it at the sampling time ``τ_s``: at
 every step ``k ≥ 1`` it predicts from ``t_{k−1}`` with the servicer's AODS
 state at ``t_{k−1}``, then updates with the pose measurement taken at ``t_k``
 (if any), gated per source, and with the spin-prior proxy if asked.
+
+References
+----------
+.. [1] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
 """
 
 from __future__ import annotations

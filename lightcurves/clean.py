@@ -24,6 +24,13 @@ exceeds ``z`` with probability ``1 − (1 − e^{−z})^M`` (Horne & Baliunas 19
 
 The transforms come from :mod:`lightcurves.clean_implementations`
 (``method="direct"`` or ``"fast"``), as astropy's ``LombScargle`` does.
+
+References
+----------
+.. [1] Roberts, Lehár, Dreher, *Time series analysis with CLEAN. I. Derivation of a spectrum*,
+   Astronomical Journal 93, 968, 1987.
+.. [2] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
 """
 
 from __future__ import annotations

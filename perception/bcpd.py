@@ -45,6 +45,12 @@ The result follows eq. 4 of Maestrini et al.: ``model ≈ s R measured + t`` —
 transformation that carries the measured cloud onto the model. BCPD itself
 moves the model onto the measurement (the measurement carries the outliers);
 the result is its inverse.
+
+References
+----------
+.. [1] Hirose, *A Bayesian formulation of coherent point drift*, IEEE TPAMI 43(7), 2021.
+.. [2] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

@@ -20,6 +20,11 @@ i.e. eq. 1 with ``v − v0 = r0 − r``; frame C of :mod:`perception.render`).
 Pixel coordinates follow :mod:`perception.render`: pixel ``i`` spans
 ``[i, i + 1)``; OpenCV's keypoint coordinates put pixel centres at integers,
 so ``u = x_cv + 0.5``.
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

@@ -8,4 +8,10 @@
 * :mod:`estimators.combina.unscented` — the unscented core they share.
 
 The closed loop that drives them over a measurement sequence is :func:`studies.sim.combina.run_combina`.
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
+.. [2] Crassidis, Markley, *Unscented filtering for spacecraft attitude estimation*, JGCD 26(4), 2003.
 """

@@ -42,6 +42,11 @@ How the attitude is carried (the paper's global MRP fails on fast tumblers):
 Spin priors (Renis et al. §6, used by the studies): ``ω_0`` and its ``P_0`` block
 are simply the constructor's arguments; :meth:`rate_proxy_innovation` builds
 the proxy measurement of the spin *rate* ``|ω|`` that a light curve gives.
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

@@ -27,6 +27,11 @@ the paper gives ``R`` as a constant.
 Post-processing (eqs 42–45): ``e = (Γ/A)√(1 − sin²φ cos²δ)`` and
 ``(ω_y/A)² = (Γ/A)² − e² = (Γ/A)² sin²φ cos²δ`` with ``B = 1``, and their
 covariance ``J_F P J_Fᵀ`` with the analytic Jacobian.
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

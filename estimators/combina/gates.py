@@ -10,6 +10,11 @@
 
 Both return a :class:`~estimators.gates.GateDecision`, so every decision can be
 recorded, accepted or not.
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

@@ -45,6 +45,11 @@ registration, still lies on the coarse model after a roll of 90°, 180° or
 270° about the symmetry axis if and only if the body is symmetric about it.
 The residual of each rolled cloud is compared with the unrolled cloud's own
 residual (noise-relative, so independent of the cloud's noise and density).
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

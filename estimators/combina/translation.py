@@ -10,6 +10,11 @@ The public interface is SI (m, m/s, s, m², ...). With ``units=ScaledUnits(...)`
 the filter runs internally in the paper's scaled units (§VI: time in
 ``TU = 1/n``, length in ``LU``); inputs and outputs stay SI, and the answers
 agree with the SI filter to round-off (``tests/estimators/test_combina_translation.py``).
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations

@@ -12,6 +12,11 @@ predicted set's side before the innovation is formed.
 
 The noise is additive: ``P(k+1|k) = Σ Ω_P (X − x̂)(X − x̂)ᵀ + Q`` (``Q = 0`` in
 the paper) and ``P_z = Σ Ω_P (Z − ẑ)(Z − ẑ)ᵀ + R`` (eq. 16).
+
+References
+----------
+.. [1] Maestrini, De Luca, Di Lizia, *Relative Navigation Strategy About Unknown and Uncooperative
+   Targets*, Journal of Guidance, Control, and Dynamics, 2023.
 """
 
 from __future__ import annotations
