@@ -6,7 +6,8 @@ aliased photometry):
 1. check the series; remove a weighted quadratic in time (the slow change of
    phase angle and range over the arc, which is not rotation);
 2. the generalised (floating-mean, weighted) Lomb–Scargle periodogram
-   (astropy's ``LombScargle``, Zechmeister & Kürster 2009) on
+   (astropy's fast ``LombScargle``, Zechmeister & Kürster 2009; its formulas
+   written out so the residuals' periodogram reuses the weight sums) on
    ``[nu_min, nu_max]``; for evenly sampled data ``nu_max`` stops one
    resolution element short of the Nyquist frequency, where the sine term
    vanishes and a fit breaks down;
