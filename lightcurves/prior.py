@@ -316,19 +316,19 @@ class _LagBins:
         D = np.lib.stride_tricks.sliding_window_view(tp, L + 1)[: t.size]
         d = (D[:, 1:] - D[:, :1]).ravel()
         keep = d <= 0.25 * T
-        dk = d[keep]
-        # 25 log-spaced bins from the shortest to the longest lag (the index by logarithm: a third of a sorted search's time)
-        lo, hi = np.log(dk.min() * (1 - 1e-9)), np.log(dk.max() * (1 + 1e-9))
-        x = np.log(dk)
+        d_min, d_max = d.min(), np.max(d, where=keep, initial=0.0)
+        # 25 log-spaced bins from the shortest to the longest lag (the index by logarithm: a third of a sorted search's time);
+        # in place and without gathering the kept lags: each pass over the N L lags costs ~0.3 ms at N = 1900
+        lo, hi = np.log(d_min * (1 - 1e-9)), np.log(d_max * (1 + 1e-9))
+        x = np.log(d)
         x -= lo
-        x *= 25.0 / (hi - lo)  # in place: each pass over the N L lags costs ~0.3 ms at N = 1900
-        bk = np.minimum(x.astype(np.intp), 24)
-        bins = np.full(d.size, 25, dtype=np.intp)
-        bins[keep] = bk
-        nb = np.bincount(bk, minlength=25).astype(float)
+        x *= 25.0 / (hi - lo)
+        np.minimum(x, 24.0, out=x, where=keep)
+        bins = np.where(keep, x, 25.0).astype(np.intp)
+        nb = np.bincount(bins, minlength=26)[:25].astype(float)
         ok = nb > 0
-        lag = np.bincount(bk, dk, minlength=25)[ok] / nb[ok]
-        taus = np.geomspace(0.3 * dk.min(), T, 60)
+        lag = np.bincount(bins, np.where(keep, d, 0.0), minlength=26)[:25][ok] / nb[ok]
+        taus = np.geomspace(0.3 * d_min, T, 60)
         return cls(L, bins, nb[ok], ok, taus, np.exp(-lag[None, :] / taus[:, None]))
 
 
