@@ -62,6 +62,15 @@ aliased photometry):
 The WindowCLEAN spectrum (:func:`~lightcurves.clean.window_clean`) of the
 detrended series is :attr:`SpinPrior.spectrum`, computed when first asked
 for (plots and recordings); the period search does not need it.
+
+References
+----------
+.. [1] Lomb, *Least-squares frequency analysis of unequally spaced data*, Ap&SS 39, 447, 1976;
+   Scargle, *Studies in astronomical time series analysis. II*, ApJ 263, 835, 1982.
+.. [2] Baluev, *Assessing the statistical significance of periodogram peaks*, MNRAS 385, 1279, 2008.
+.. [3] VanderPlas, *Understanding the Lomb–Scargle periodogram*, ApJS 236, 16, 2018.
+.. [4] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
+   Kinematic State Estimation of Uncooperative Targets*.
 """
 
 from __future__ import annotations
