@@ -215,15 +215,21 @@ def test_odd_harmonics_of_half_the_frequency_tell_p_from_2p():
     assert prior.frequency_hz * P == pytest.approx(1.0, abs=1e-3)
 
 
+def _noisy_sinusoid(rng, n_points: int):
+    """``(t, mag, f)``: a 0.2 mag sinusoid of random frequency 0.02–0.05 Hz at ``n_points`` random instants in
+    1000 s, white noise 0.05 mag."""
+    t = np.sort(rng.uniform(0.0, 1000.0, n_points))
+    f = rng.uniform(0.02, 0.05)
+    return t, 10 + 0.2 * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.05, t.size), f
+
+
 def test_odd_harmonic_f_test_is_uniform_under_the_null():
     """A pure sinusoid in white noise has no odd harmonics of f/2: the F-test's p is uniform, so p < 0.05 for a
     Bin(n, 0.05) count of n realisations (99.9 % band)."""
     rng = np.random.default_rng(31)
     n, hits = 300, 0
     for _ in range(n):
-        t = np.sort(rng.uniform(0.0, 1000.0, 120))
-        f = rng.uniform(0.02, 0.05)
-        y = 10 + 0.2 * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.05, t.size)
+        t, y, f = _noisy_sinusoid(rng, 120)
         s = _prepare(t, y, np.full(t.size, 0.05), None, 0.2)
         hits += _odd_harmonic_test(s, s.refine(f, 1, 0.1 / s.T), 1) < 0.05
     lo, hi = stats.binom.ppf([0.0005, 0.9995], n, 0.05)
@@ -236,9 +242,7 @@ def test_a_sinusoid_is_not_doubled():
     rng = np.random.default_rng(32)
     n, halved = 60, 0
     for _ in range(n):
-        t = np.sort(rng.uniform(0.0, 1000.0, 60))
-        f = rng.uniform(0.02, 0.05)
-        y = 10 + 0.2 * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.05, t.size)
+        t, y, f = _noisy_sinusoid(rng, 60)
         p = extract_spin_prior(t, y, np.full(t.size, 0.05), nu_max=0.2)
         assert p.significant
         halved += abs(p.frequency_hz / f - 0.5) < 1e-3
