@@ -107,15 +107,12 @@ def frames(
         write_frame_recording(stage / "frames.rrd", frame, left_u8, right_u8, cloud, model_C, registered_C,
                               recording_id=f"perception-frames-{out.absolute().name}")
         write_json(stage / "summary.json", summary)
-    if as_json:
-        typer.echo(json.dumps(summary, indent=2))
-    else:
-        typer.echo(
-            f"{summary['points']} points ({cloud.detector}), median depth error {100 * err_frac:.2f}% of range; "
-            f"registration {'accepted' if meas.accepted else 'rejected: ' + meas.reason}"
-            + (f", rotation error {reg['rotation_error_deg']:.2f} deg, position error {reg['position_error_m']:.3f} m" if meas.registration else "")
-            + f"; wrote {out}"
-        )
+    _report(summary, as_json, lambda: (
+        f"{summary['points']} points ({cloud.detector}), median depth error {100 * err_frac:.2f}% of range; "
+        f"registration {'accepted' if meas.accepted else 'rejected: ' + meas.reason}"
+        + (f", rotation error {reg['rotation_error_deg']:.2f} deg, position error {reg['position_error_m']:.3f} m" if meas.registration else "")
+        + f"; wrote {out}"
+    ))
 
 
 @perception_app.command("bench")
@@ -127,14 +124,16 @@ def bench(
 ) -> None:
     """Register ~1000 measured points against a ~3000-point model over random poses; timing and accuracy."""
     r = bench_registration(poses, seed, method=method)
-    if as_json:
-        typer.echo(json.dumps(r, indent=2))
-    else:
-        typer.echo(
-            f"BCPD ({method}) {r['measured_points']} vs {r['model_points']} points over {poses} poses: "
-            f"median {r['median_ms']:.1f} ms, p99 {r['p99_ms']:.1f} ms; rotation error median {r['median_rotation_error_deg']:.3f} deg, "
-            f"p99 {r['p99_rotation_error_deg']:.3f} deg; position error median {1e3 * r['median_position_error_m']:.1f} mm"
-        )
+    _report(r, as_json, lambda: (
+        f"BCPD ({method}) {r['measured_points']} vs {r['model_points']} points over {poses} poses: "
+        f"median {r['median_ms']:.1f} ms, p99 {r['p99_ms']:.1f} ms; rotation error median {r['median_rotation_error_deg']:.3f} deg, "
+        f"p99 {r['p99_rotation_error_deg']:.3f} deg; position error median {1e3 * r['median_position_error_m']:.1f} mm"
+    ))
+
+
+def _report(result: dict, as_json: bool, line) -> None:
+    """Print ``result`` as indented JSON (``--json``) or the one summary line ``line()`` makes."""
+    typer.echo(json.dumps(result, indent=2) if as_json else line())
 
 
 def register(app: typer.Typer) -> None:
