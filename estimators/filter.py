@@ -189,6 +189,14 @@ class KalmanFilterBase:
             self._commit(x, P, f"update at t={t}")
         return decisions
 
+    def reset(self, x, P, what: str = "reset") -> None:
+        """Replace the estimate and its covariance (e.g. by a batch posterior, :mod:`estimators.batch`); checked like a step."""
+        x = np.asarray(x, dtype=float)
+        P = np.asarray(P, dtype=float)
+        if x.shape != self.x.shape or P.shape != self.P.shape:
+            raise ValueError(f"{self.kind}: reset needs x {self.x.shape} and P {self.P.shape}, got {x.shape} and {P.shape}")
+        self._commit(x, P, what)
+
     def rescale(self, scale) -> None:
         """``P ← D P D`` with ``D = diag(scale)``, ``scale ≥ 1``: inflate some error components, keeping correlations."""
         scale = np.asarray(scale, dtype=float)

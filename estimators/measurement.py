@@ -136,6 +136,14 @@ class AttitudeMeasurement:
     def jacobian(self, x) -> np.ndarray:
         return _H_ATTITUDE
 
+    def residual(self, Z, X) -> np.ndarray:
+        """``z ⊟ h(x)`` row by row for measurements ``Z (n, 4)`` at states ``X (n, 15)``: the attitude error ``δp`` (n, 3)."""
+        return attitude_error(np.asarray(Z, dtype=float), np.asarray(X)[..., Q_TS])
+
+    def jacobians(self, X) -> np.ndarray:
+        """``H`` at each of the states ``X (n, 15)``: (n, 3, 14)."""
+        return np.broadcast_to(_H_ATTITUDE, (len(X),) + _H_ATTITUDE.shape)
+
 
 @dataclass(frozen=True)
 class PositionMeasurement:
@@ -157,6 +165,14 @@ class PositionMeasurement:
 
     def jacobian(self, x) -> np.ndarray:
         return _H_POSITION
+
+    def residual(self, Z, X) -> np.ndarray:
+        """``z − h(x)`` row by row for measurements ``Z (n, 3)`` at states ``X (n, 15)`` (m)."""
+        return np.asarray(Z, dtype=float) - np.asarray(X)[..., R_ST_T]
+
+    def jacobians(self, X) -> np.ndarray:
+        """``H`` at each of the states ``X (n, 15)``: (n, 3, 14)."""
+        return np.broadcast_to(_H_POSITION, (len(X),) + _H_POSITION.shape)
 
 
 @dataclass(frozen=True)
@@ -193,6 +209,14 @@ class TargetRateMeasurement:
         H[:, DW_ST_T] = -np.eye(3)
         return H
 
+    def residual(self, Z, X) -> np.ndarray:
+        """``z − h(x)`` row by row for rate measurements ``Z (n, 3)`` at states ``X (n, 15)`` (rad/s)."""
+        return np.asarray(Z, dtype=float) - self.h_chart(X, None)
+
+    def jacobians(self, X) -> np.ndarray:
+        """``H`` at each of the states ``X (n, 15)``: (n, 3, 14)."""
+        return np.stack([self.jacobian(x) for x in np.asarray(X)])
+
 
 @dataclass(frozen=True)
 class LinearMeasurement:
@@ -220,3 +244,11 @@ class LinearMeasurement:
 
     def jacobian(self, x) -> np.ndarray:
         return self.H
+
+    def residual(self, Z, X) -> np.ndarray:
+        """``z − H x`` row by row (n, m)."""
+        return np.asarray(Z, dtype=float).reshape(len(X), -1) - self.h_chart(X, None)
+
+    def jacobians(self, X) -> np.ndarray:
+        """``H`` for each of the ``n`` states: (n, m, n_state)."""
+        return np.broadcast_to(self.H, (len(X),) + self.H.shape)

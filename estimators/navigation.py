@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimators.batch import BatchFitError, MeasurementHistory, posterior
 from estimators.ekf import ExtendedKalmanFilter
 from estimators.gates import GateDecision
 from estimators.measurement import PoseNoise
@@ -63,6 +64,8 @@ class NavigationRun:
     decisions: tuple[GateDecision, ...]
     pose_noise: PoseNoise = PoseNoise()  #: the noise model the filter's ``R_d`` came from
     reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
+    #: ``(t, nodes, fits)`` of each re-linearisation about the full-information fit (:mod:`estimators.batch`)
+    relinearizations: tuple[tuple[float, int, bool], ...] = ()
 
 
 def run_navigation(
@@ -121,12 +124,14 @@ def run_navigation(
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
+    relin = _Relinearization(model, servicer, tau, tuning, filt, consider) if tuning.relinearize_s > 0 else None
     k_axes = np.arange(N_ERROR)[DK]
     settle_consider = np.union1d(consider, k_axes).astype(int)
     no_directions = np.zeros((0, N_ERROR))
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
-            settling = t[k - 1] - t[0] < tuning.settling_s
+            # with re-linearisation, the settling phase lasts until a full-information fit has passed its test
+            settling = t[k - 1] - t[0] < tuning.settling_s or (relin is not None and relin.x0_fit is None)
             _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
             releasing = not settling and t[k - 1] - t[0] < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
             filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau) if releasing else no_directions
@@ -148,13 +153,59 @@ def run_navigation(
                     reacq.step(filt, src, accepted[src.name][k], t[k], innovations[src.name][0], x_prior)
         proxy_used[k] = proxy == "always"
         if proxy == "on_reject" and not all(accepted[s][k] for s in SOURCES):
-            filt.update([rate_proxy(prior, servicer[k], R_w)], t=t[k])
+            parts.append(rate_proxy(prior, servicer[k], R_w))
+            filt.update(parts[-1:], t=t[k])
             proxy_used[k] = True
+        if relin is not None:
+            relin.step(filt, k, t[k] - t[0], parts, decisions)
         xs[k], Ps[k] = filt.x, filt.P
     return NavigationRun(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
+        relinearizations=tuple(relin.events) if relin is not None else (),
     )
+
+
+class _Relinearization:
+    """The tuning's periodic re-linearisation: the filter's ``x, P`` replaced by the full-information posterior.
+
+    Every ``tuning.relinearize_s`` from the end of the settling phase on, the
+    measurements the filter accepted so far (gated camera sources, the prior
+    proxy) are fitted together with its initial ``x̂_0, P_0``
+    (:func:`estimators.batch.posterior`); the first fit starts from the
+    filter's estimate run back to ``t[0]``, each later one from the previous
+    fit. A fit that does not pass its chi-square test leaves the filter as it is.
+    """
+
+    def __init__(self, model, servicer, tau: float, tuning: Tuning, filt, consider):
+        self.model, self.servicer, self.tau, self.consider = model, servicer, tau, consider
+        self.x0_prior, self.P0 = filt.x.copy(), filt.P.copy()
+        self.first_s, self.every_s = (tuning.settling_s or tuning.relinearize_s), tuning.relinearize_s
+        self.history = MeasurementHistory()
+        self.x0_fit = None
+        self.events: list[tuple[float, int, bool]] = []
+
+    def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
+        """Record step ``k``'s accepted measurements; fit and reset the filter when a re-linearisation is due."""
+        rejected = {d.source for d in decisions if not d.accepted}
+        for src, z in parts:
+            if src.name not in rejected:
+                self.history.add(k, src, z)
+        due = t_s + 1e-9 >= self.first_s and abs((t_s - self.first_s) / self.every_s - round((t_s - self.first_s) / self.every_s)) < 1e-6
+        if not due or not len(self.history):
+            return
+        start = self.x0_fit if self.x0_fit is not None else self.model.rewind(filt.x, self.servicer[1 : k + 1], self.tau)
+        k_states = None if np.isin(np.arange(N_ERROR)[DK], self.consider).any() else np.arange(N_ERROR)[DK]
+        try:
+            post = posterior(self.model, self.servicer, self.history, self.x0_prior, self.P0, k, self.tau, x0_start=start,
+                             consider=self.consider, k_states=k_states)
+        except BatchFitError:
+            self.events.append((float(t_s), 0, False))
+            return
+        self.events.append((float(t_s), post.nodes, post.fits))
+        if post.fits:
+            filt.reset(post.x, post.P, f"re-linearisation at t={t_s}")
+            self.x0_fit = post.x0
 
 
 def _check_grid(t, servicer) -> tuple[np.ndarray, np.ndarray, float]:

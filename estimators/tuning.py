@@ -119,11 +119,14 @@ class Tuning:
     settling_s: float = 0.0
     #: release phase after the settling phase (s): the weakly observable combination of ``k1, k2`` stays considered
     release_s: float = 0.0
+    #: period (s) of the re-linearisation about the full-information fit (:mod:`estimators.batch`) from the end of the
+    #: settling phase on; 0: never
+    relinearize_s: float = 0.0
 
     def __post_init__(self):
         if self.settling_q_rate is None:
             object.__setattr__(self, "settling_q_rate", np.zeros(N_ERROR))
-        for field in ("settling_s", "release_s"):
+        for field in ("settling_s", "release_s", "relinearize_s"):
             if not (np.isfinite(getattr(self, field)) and getattr(self, field) >= 0):
                 raise ValueError(f"tuning {self.name!r}: {field} must be a finite number of seconds >= 0")
         for field in ("q_rate", "p0_diag", "settling_q_rate"):
@@ -155,6 +158,9 @@ TUNINGS: dict[str, Tuning] = {
         Tuning("consistent", _q(0.0, 0.0, 0.0, 0.0, 0.0), P0_DEFAULT, description="Q_d = 0: the truth is noise-free (consistency tests)"),
         Tuning("settled", _q(0.0, 1.5e-7, 0.0, 0.0, 3e-7), P0_DEFAULT,
                description="settling phase, then process noise on the rate and k only (closest to consistent; UKF)", **SETTLING),
+        Tuning("relinearized", _q(0.0, 0.0, 0.0, 0.0, 0.0), P0_DEFAULT,
+               description="Q_d = 0 after a 10 s settling phase, re-linearised about the full-information fit every 10 s (consistent)",
+               settling_q_rate=SETTLING["settling_q_rate"], settling_s=10.0, relinearize_s=10.0),
         Tuning("general", _q(1e-4, 1e-5, 1e-3, 1e-3, 1e-5), P0_DEFAULT, description="KF_gen: conservative, for the fast 2-axis tumble (SC4)"),
         Tuning("sc1", _q(1e-5, 1e-7, 1e-4, 1e-4, 0.0), P0_DEFAULT, description="1-axis slow tumble"),
         Tuning("sc2", _q(1e-4, 1e-6, 1e-4, 1e-4, 0.0), P0_DEFAULT, description="1-axis fast tumble"),
