@@ -44,12 +44,22 @@ of the last state, 14 dof, band 0.87–1.14):
   deviation apart is accurate to ~1e-8 for a Gaussian, so 9 nodes suffice.
 * *Considered states* (``k`` in a one-axis tumble, where it does not move
   the state): held at the prior, with the consider covariance of Tapley,
-  Schutz & Born (2004, §6.3), ``C_ee = A_ee⁻¹ + S P_cc Sᵀ``, ``S = −A_ee⁻¹ A_ec``.
+  Schutz & Born (2004, §6.3), ``C_ee = A_ee⁻¹ + S P_cc Sᵀ``,
+  ``S = −A_ee⁻¹ A_ec``. SC1 and SC2 spin about the intermediate axis
+  (``A = 4.33 > C = 4.22 > B = 1``), so the fitted trajectory's sensitivity to
+  a held, wrong ``k`` grows like ``e^{λt}`` (``λ ≈ 0.01–0.04 /s`` on SC1,
+  0.06–0.16 /s on SC2). On SC2 the consider term reached 1e16 by 170 s; a fit
+  whose consider term exceeds an estimated state's prior variance is
+  therefore not used (the held states, not the data, decide it). Estimating
+  ``k`` and putting it back to the prior afterwards (the Schmidt form of one
+  batch update) was tried: no blow-up on SC2, but SC1 went from 99 % of the
+  steps in band to 19 % (mean NEES/dof 1.19): the fit learns ``k`` from the
+  same sensitivity and the estimated states with it.
 
 A fit whose minimum cost exceeds the 99.9 % quantile of its chi-square (the
 measurements' degrees of freedom) has not found the data's trajectory (a
-local minimum from a poor start): :attr:`BatchPosterior.fits` says so, and the
-caller keeps its filter's estimate.
+local minimum from a poor start): :attr:`BatchPosterior.usable` says so, and
+the caller keeps its filter's estimate.
 
 References
 ----------
@@ -64,6 +74,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2
+
+from estimators.filter import _block_diag
 
 #: Largest ``k`` standard deviation (along the weak direction) at which the Laplace covariance is trusted.
 WEAK_SIGMA = 0.05
@@ -100,13 +112,13 @@ class MeasurementHistory:
     def __len__(self) -> int:
         return sum(len(ks) for _, ks, _ in self._rows.values())
 
-    def groups(self, k_end: int):
-        """``(source, ks, Z)`` per source, for steps ``1 … k_end``."""
+    def groups(self, k_start: int, k_end: int):
+        """``(source, ks, Z)`` per source, for steps ``k_start < k ≤ k_end``, ``ks`` counted from ``k_start``."""
         for src, ks, zs in self._rows.values():
             ks_a = np.asarray(ks)
-            keep = ks_a <= k_end
+            keep = (ks_a > k_start) & (ks_a <= k_end)
             if keep.any():
-                yield src, ks_a[keep], np.asarray(zs)[keep]
+                yield src, ks_a[keep] - k_start, np.asarray(zs)[keep]
 
 
 @dataclass(frozen=True)
@@ -115,12 +127,14 @@ class BatchPosterior:
 
     ``x`` (n_state,) and ``P`` (n_error, n_error): its mean and covariance
     (the mode and the Laplace covariance unless ``nodes > 0``); ``x0``: the
-    fitted initial state (mode), the start of the next fit; ``cost``: the
-    minimum of ``−2 log p`` (measurement and prior terms), ``dof`` the
-    measurements' degrees of freedom; ``fits``: ``cost`` below the
-    :data:`FIT_QUANTILE` of ``χ²(dof)``; ``iterations``: accepted
+    fitted state at the prior's step (mode), the start of the next fit;
+    ``cost``: the minimum of ``−2 log p`` (measurement and prior terms),
+    ``dof`` the measurements' degrees of freedom; ``iterations``: accepted
     Levenberg–Marquardt steps; ``nodes``: quadrature nodes along the weak
-    inertia direction (0: Laplace).
+    inertia direction (0: Laplace). ``usable``: ``cost`` below the
+    :data:`FIT_QUANTILE` of ``χ²(dof)`` (else a local minimum or an
+    unmodelled error) and no consider term beyond an estimated state's prior
+    variance.
     """
 
     x: np.ndarray
@@ -128,59 +142,73 @@ class BatchPosterior:
     x0: np.ndarray
     cost: float
     dof: int
-    fits: bool
+    usable: bool
     iterations: int
     nodes: int
 
 
 @dataclass(frozen=True)
 class _Linearisation:
-    A: np.ndarray  #: normal matrix at ``x0`` (prior and data information)
-    b: np.ndarray  #: gradient side, ``−½ ∂cost/∂δ``
-    cost: float
+    """The residuals at a start ``x0``, whitened, and (with a Jacobian) their rows ``J`` in the error of ``x0``.
+
+    Kept as rows rather than as the normal matrix ``A = Jᵀ J``: ``Φ`` spans
+    1e-5…1e5 (rate errors move positions by ``50 m × t``), so ``A`` spans the
+    square of that and its Cholesky factor failed on SC2 (0.2 rad/s), while
+    the QR factor of ``J`` has the conditioning of ``J``.
+    """
+
+    J: np.ndarray | None  #: (rows, n_error): whitened residual Jacobians, the prior's rows first
+    y: np.ndarray  #: (rows,): whitened residuals (prior: ``−P_0^{−½}(x0 ⊟ x̂_0)``)
+    cost: float  #: ``yᵀ y``
     x_end: np.ndarray
-    Phi_end: np.ndarray
+    Phi_end: np.ndarray | None
+
+    def step(self, E: np.ndarray, lam: float) -> np.ndarray:
+        """The Levenberg–Marquardt step ``E d`` of ``(EᵀAE + λ diag(EᵀAE)) d = Eᵀ Jᵀ y``."""
+        JE = self.J @ E
+        AE = JE.T @ JE
+        return E @ np.linalg.solve(AE + lam * np.diag(np.diag(AE)), JE.T @ self.y)
+
+    def root(self, E: np.ndarray) -> tuple[np.ndarray, float]:
+        """``(G, log|EᵀAE|)`` with ``G Gᵀ = (EᵀAE)⁻¹``, from the QR factor ``R`` of ``J E`` (``G = R⁻¹``)."""
+        R = np.linalg.qr(self.J @ E, mode="r")
+        return np.linalg.inv(R), 2.0 * float(np.sum(np.log(np.abs(np.diag(R)))))
 
 
 class _Problem:
     """The cost of :func:`posterior` and its Gauss–Newton pieces, for one data set."""
 
-    def __init__(self, model, servicer, history: MeasurementHistory, x0_prior, P0, k_end: int, dt: float):
-        self.model, self.dt, self.k_end = model, float(dt), int(k_end)
-        self.servicer = np.asarray(servicer, dtype=float)[: self.k_end]
+    def __init__(self, model, servicer, history: MeasurementHistory, x0_prior, P0, k_start: int, k_end: int, dt: float):
+        self.model, self.dt = model, float(dt)
+        self.servicer = np.asarray(servicer, dtype=float)[int(k_start) : int(k_end)]
         self.x0_prior = np.asarray(x0_prior, dtype=float)
         self.P0 = np.asarray(P0, dtype=float)
-        self.P0_inv = np.linalg.inv(self.P0)
+        self.prior_root = np.linalg.cholesky(np.linalg.inv(self.P0))  # P_0⁻¹ = L Lᵀ: prior rows Lᵀ δ
         self.groups = []
-        for src, ks, Z in history.groups(self.k_end):
+        for src, ks, Z in history.groups(int(k_start), int(k_end)):
             L = np.linalg.cholesky(np.linalg.inv(src.R))  # R⁻¹ = L Lᵀ: whitened residuals Lᵀ y
             self.groups.append((src, ks, Z, L))
         self.dof = int(sum(len(ks) * src.R.shape[0] for src, ks, _, _ in self.groups))
 
     def linearise(self, x0, jacobian: bool = True) -> _Linearisation | None:
-        """Cost at ``x0`` and, with ``jacobian``, the normal equations; ``None`` if the trajectory is not finite."""
+        """Residuals at ``x0`` and, with ``jacobian``, their rows; ``None`` if the trajectory or its Jacobian is not finite."""
         with np.errstate(over="ignore", invalid="ignore"):
-            return self._linearise(x0, jacobian)
-
-    def _linearise(self, x0, jacobian: bool) -> _Linearisation | None:
-        X, Phi = self.model.trajectory(x0, self.servicer, self.dt, jacobian=jacobian)
-        if not (np.all(np.isfinite(X)) and (Phi is None or np.all(np.isfinite(Phi[-1])))):
-            return None
-        r0 = self.model.boxminus(x0, self.x0_prior)
-        cost = float(r0 @ self.P0_inv @ r0)
-        n = self.P0.shape[0]
-        A = self.P0_inv.copy() if jacobian else None
-        b = -self.P0_inv @ r0 if jacobian else None
-        for src, ks, Z, L in self.groups:
-            Yw = src.residual(Z, X[ks]) @ L  # rows of Lᵀ y
-            cost += float(np.sum(Yw * Yw))
-            if jacobian:
-                Jw = np.einsum("ji,njk->nik", L, src.jacobians(X[ks]) @ Phi[ks]).reshape(-1, n)
-                A += Jw.T @ Jw
-                b += Jw.T @ Yw.reshape(-1)
-        if not (np.isfinite(cost) and (not jacobian or (np.all(np.isfinite(A)) and np.all(np.isfinite(b))))):
-            return None
-        return _Linearisation(A, b, cost, X[-1], Phi[-1] if jacobian else None)
+            X, Phi, _ = self.model.trajectory(x0, self.servicer, self.dt, jacobian=jacobian)
+            if not (np.all(np.isfinite(X)) and (Phi is None or np.all(np.isfinite(Phi[-1])))):
+                return None
+            n = self.P0.shape[0]
+            ys = [-self.prior_root.T @ self.model.boxminus(x0, self.x0_prior)]
+            Js = [self.prior_root.T] if jacobian else []
+            for src, ks, Z, L in self.groups:
+                ys.append((src.residual(Z, X[ks]) @ L).reshape(-1))  # rows of Lᵀ y
+                if jacobian:
+                    Js.append(np.einsum("ji,njk->nik", L, src.jacobians(X[ks]) @ Phi[ks]).reshape(-1, n))
+            y = np.concatenate(ys)
+            J = np.vstack(Js) if jacobian else None
+            cost = float(y @ y)
+            if not (np.isfinite(cost) and (J is None or np.all(np.isfinite(J)))):
+                return None
+        return _Linearisation(J, y, cost, X[-1], Phi[-1] if jacobian else None)
 
     def minimise(self, x0, E: np.ndarray) -> tuple[np.ndarray, _Linearisation, int]:
         """Levenberg–Marquardt on ``x0 ⊞ E d`` (``E``: n_error × m, the free directions); returns ``(x0, lin, steps)``."""
@@ -189,13 +217,11 @@ class _Problem:
             raise BatchFitError("the trajectory from the fit's start is not finite")
         lam, steps = 1e-6, 0
         for _ in range(MAX_ITERATIONS):
-            AE = E.T @ lin.A @ E
-            d = E @ np.linalg.solve(AE + lam * np.diag(np.diag(AE)), E.T @ lin.b)
-            x_new = self.model.boxplus(x0, d)
+            x_new = self.model.boxplus(x0, lin.step(E, lam))
             trial = self.linearise(x_new, jacobian=False)
             if trial is not None and trial.cost <= lin.cost and lin.cost - trial.cost < COST_TOL:
-                # converged: keep the normal equations of the last (tiny) step's start
-                return x_new, _Linearisation(lin.A, lin.b, trial.cost, trial.x_end, lin.Phi_end), steps + 1
+                # converged: keep the Jacobian of the last (tiny) step's start
+                return x_new, _Linearisation(lin.J, trial.y, trial.cost, trial.x_end, lin.Phi_end), steps + 1
             new = self.linearise(x_new) if trial is not None and trial.cost <= lin.cost else None
             if new is not None:
                 x0, lin, steps, lam = x_new, new, steps + 1, max(lam / 10.0, 1e-12)
@@ -206,29 +232,24 @@ class _Problem:
         return x0, lin, steps
 
 
-def _inverse_root(A: np.ndarray) -> np.ndarray:
-    """``G`` with ``G Gᵀ = A⁻¹`` (``A = L Lᵀ``, ``G = L⁻ᵀ``).
-
-    Covariances are carried as such roots: ``Φ C Φᵀ`` formed directly loses
-    definiteness when ``Φ`` spans 1e-5…1e5 (rate errors move positions by
-    ``50 m × t``: a 270 s SC1 fit gave an eigenvalue of −1e-17 where the
-    filter's own was 5e-12), while ``(Φ G)(Φ G)ᵀ`` is a Gram matrix.
-    """
-    return np.linalg.inv(np.linalg.cholesky(A)).T
-
-
-def _initial_root(A: np.ndarray, P0: np.ndarray, est: np.ndarray, con: np.ndarray) -> np.ndarray:
+def _initial_root(lin: _Linearisation, P0: np.ndarray, est: np.ndarray, con: np.ndarray) -> np.ndarray:
     """A root ``G`` of the fitted initial state's covariance, ``C = G Gᵀ``: ``A_ee⁻¹`` plus the considered states' part.
 
     Consider covariance (Tapley et al. §6.3): ``C_ee = A_ee⁻¹ + S P_cc Sᵀ``,
     ``C_ec = S P_cc``, ``C_cc = P_cc`` with ``S = −A_ee⁻¹ A_ec``, i.e.
-    ``G = [E_e A_ee^{−½}, (E_e S + E_c) P_cc^{½}]``.
+    ``G = [E_e A_ee^{−½}, (E_e S + E_c) P_cc^{½}]``. ``A`` holds the prior's
+    rows too, so a prior that correlates the held and the estimated states
+    (a filter's estimate as the prior of a later fit) enters ``S`` through
+    ``(P⁻¹)_ec``. Covariances are carried as roots: ``Φ C Φᵀ`` formed directly
+    lost definiteness on SC1 (an eigenvalue of −1e-17 where the filter's own
+    was 5e-12), ``(Φ G)(Φ G)ᵀ`` is a Gram matrix.
     """
-    n = A.shape[0]
+    n = lin.J.shape[1]
     E = np.eye(n)
-    G = E[:, est] @ _inverse_root(A[np.ix_(est, est)])
+    Ge, _ = lin.root(E[:, est])
+    G = E[:, est] @ Ge
     if con.size:
-        S = -np.linalg.solve(A[np.ix_(est, est)], A[np.ix_(est, con)])
+        S = -Ge @ (Ge.T @ (lin.J[:, est].T @ lin.J[:, con]))
         G = np.hstack([G, (E[:, est] @ S + E[:, con]) @ np.linalg.cholesky(P0[np.ix_(con, con)])])
     return G
 
@@ -255,10 +276,10 @@ def _weak_quadrature(problem: _Problem, x0: np.ndarray, lin: _Linearisation, G0:
             _, ln, _ = problem.minimise(problem.model.boxplus(x0, gain * (g * sigma_u)), E)
         except BatchFitError:  # a node whose trajectory is not finite has no weight
             continue
-        AE = E.T @ ln.A @ E
-        log_w.append(-0.5 * ln.cost - 0.5 * np.linalg.slogdet(AE)[1])
+        G, logdet = ln.root(E)
+        log_w.append(-0.5 * ln.cost - 0.5 * logdet)
         D.append(problem.model.boxminus(ln.x_end, lin.x_end))
-        roots.append(ln.Phi_end @ E @ _inverse_root(AE))
+        roots.append(ln.Phi_end @ E @ G)
     w = np.exp(np.array(log_w) - max(log_w))
     w /= w.sum()
     D = np.array(D)
@@ -268,31 +289,84 @@ def _weak_quadrature(problem: _Problem, x0: np.ndarray, lin: _Linearisation, G0:
     return problem.model.boxplus(lin.x_end, m), L @ L.T
 
 
-def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end: int, dt: float, *, x0_start=None,
-              consider=(), k_states=None) -> BatchPosterior:
-    """The posterior of the state at grid step ``k_end`` given the prior and every measurement in ``history``.
+def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end: int, dt: float, *, k_start: int = 0,
+              x0_start=None, consider=(), k_states=None) -> BatchPosterior:
+    """The posterior of the state at grid step ``k_end`` given a prior at step ``k_start`` and the measurements after it.
 
     ``model``: the process model (``trajectory``, ``boxplus``/``boxminus``);
     ``servicer (≥ k_end, 13)``: the servicer's state at each step start
-    (the filters' control input); ``x0_prior``/``P0``: the filter's initial
-    estimate and covariance at grid step 0; ``dt``: the grid step (s);
-    ``x0_start``: where the fit of ``x_0`` starts (default ``x0_prior``; a
-    filter's current estimate run back with ``model.rewind`` is a better one);
-    ``consider``: error-state indices held at the prior (consider covariance);
-    ``k_states``: the error-state indices of the inertia ratios, for the
-    quadrature along their weak direction (``None``: no quadrature).
+    (the filters' control input); ``x0_prior``/``P0``: the estimate and
+    covariance at grid step ``k_start`` (a filter's initial ones for
+    ``k_start = 0``, the full history; a filter's later estimate for a moving
+    window, whose measurements it has not seen); ``dt``: the grid step (s);
+    ``x0_start``: where the fit of the state at ``k_start`` starts (default
+    ``x0_prior``; a filter's current estimate run back with ``model.rewind`` is
+    a better one for the first fit); ``consider``: error-state indices held at
+    the prior (consider covariance); ``k_states``: the error-state indices of
+    the inertia ratios, for the quadrature along their weak direction
+    (``None``: no quadrature). ``BatchPosterior.x0`` is the state at ``k_start``.
     """
-    problem = _Problem(model, servicer, history, x0_prior, P0, k_end, dt)
+    problem = _Problem(model, servicer, history, x0_prior, P0, k_start, k_end, dt)
     n = problem.P0.shape[0]
     con = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
     est = np.setdiff1d(np.arange(n), con)
     x0, lin, steps = problem.minimise(np.asarray(x0_prior if x0_start is None else x0_start, dtype=float), np.eye(n)[:, est])
-    G0 = _initial_root(lin.A, problem.P0, est, con)
-    L = lin.Phi_end @ G0
-    x, P, nodes = lin.x_end, L @ L.T, 0
-    if k_states is not None and not np.isin(k_states, con).any():
+    G0 = _initial_root(lin, problem.P0, est, con)
+    x, P, nodes = lin.x_end, _end_covariance(problem, x0, con), 0
+    # a consider term beyond the estimated states' prior: the held states, not the data, decide the fit (SC2, module docstring)
+    held_dominate = bool(con.size) and bool(np.any(np.sum(G0[est] ** 2, axis=1) > np.diag(problem.P0)[est]))
+    if k_states is not None and not con.size:
         moments = _weak_quadrature(problem, x0, lin, G0, np.asarray(k_states, dtype=int))
         if moments is not None:
             (x, P), nodes = moments, len(NODES)
     fits = bool(lin.cost <= chi2.ppf(FIT_QUANTILE, max(problem.dof, 1)))
-    return BatchPosterior(x=x, P=0.5 * (P + P.T), x0=x0, cost=lin.cost, dof=problem.dof, fits=fits, iterations=steps, nodes=nodes)
+    return BatchPosterior(x=x, P=0.5 * (P + P.T), x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate,
+                          iterations=steps, nodes=nodes)
+
+
+def _end_covariance(problem: _Problem, x0: np.ndarray, con: np.ndarray) -> np.ndarray:
+    """The Laplace covariance of the last state, by the Kalman covariance recursion along the fitted trajectory.
+
+    Mathematically ``Φ C₀ Φᵀ``; formed that way it lost definiteness where
+    ``Φ`` spans decades (rate errors move positions by ``50 m × t``, and SC1–SC2
+    spin about the intermediate axis, so ``Φ`` grows like ``e^{λt}``: on SC2 the
+    computed ``P`` had eigenvalues of −1e-19 where the filter's own were
+    5e-11). The recursion takes one step's ``F`` at a time (Joseph form), as
+    the filters do. With considered states ``c`` (held at the prior) it is the
+    consider analysis of Tapley et al. §6.3: the filter of the estimated states
+    ``e`` from the conditional prior ``P_e|c`` (``M = P_ec P_cc⁻¹``), and the
+    sensitivity ``Ψ = ∂ε_e/∂δc`` of its error to the held states' error,
+    ``Ψ⁻ = F_ee Ψ − F_ec``, ``Ψ = (I − K H_e) Ψ⁻ + K H_c``, ``Ψ_0 = −M``; then
+    ``C_ee = P + Ψ P_cc Ψᵀ``, ``C_ec = −Ψ P_cc``, ``C_cc = P_cc``.
+    """
+    X, _, F = problem.model.trajectory(x0, problem.servicer, problem.dt)
+    n = problem.P0.shape[0]
+    est = np.setdiff1d(np.arange(n), con)
+    at_step: dict[int, list] = {}
+    for src, ks, _, _ in problem.groups:
+        for k, H in zip(ks, src.jacobians(X[ks])):
+            at_step.setdefault(int(k), []).append((H, src.R))
+    P0 = problem.P0
+    Pcc = P0[np.ix_(con, con)]
+    M = P0[np.ix_(est, con)] @ np.linalg.inv(Pcc) if con.size else np.zeros((est.size, 0))
+    P = P0[np.ix_(est, est)] - M @ P0[np.ix_(con, est)]
+    Psi = -M
+    I = np.eye(est.size)
+    for k in range(1, len(X)):
+        Fee, Fec = F[k - 1][np.ix_(est, est)], F[k - 1][np.ix_(est, con)]
+        P = Fee @ P @ Fee.T
+        Psi = Fee @ Psi - Fec
+        if k in at_step:
+            H = np.vstack([h for h, _ in at_step[k]])
+            R = _block_diag([r for _, r in at_step[k]])
+            He, Hc = H[:, est], H[:, con]
+            K = np.linalg.solve(He @ P @ He.T + R, He @ P).T
+            IKH = I - K @ He
+            P = IKH @ P @ IKH.T + K @ R @ K.T
+            Psi = IKH @ Psi + K @ Hc
+    C = np.zeros((n, n))
+    C[np.ix_(est, est)] = P + Psi @ Pcc @ Psi.T
+    C[np.ix_(est, con)] = -Psi @ Pcc
+    C[np.ix_(con, est)] = (-Psi @ Pcc).T
+    C[np.ix_(con, con)] = Pcc
+    return C

@@ -64,7 +64,7 @@ class NavigationRun:
     decisions: tuple[GateDecision, ...]
     pose_noise: PoseNoise = PoseNoise()  #: the noise model the filter's ``R_d`` came from
     reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
-    #: ``(t, nodes, fits)`` of each re-linearisation about the full-information fit (:mod:`estimators.batch`)
+    #: ``(t, nodes, usable)`` of each re-linearisation about the full-information fit (:mod:`estimators.batch`)
     relinearizations: tuple[tuple[float, int, bool], ...] = ()
 
 
@@ -130,8 +130,9 @@ def run_navigation(
     no_directions = np.zeros((0, N_ERROR))
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
-            # with re-linearisation, the settling phase lasts until a full-information fit has passed its test
-            settling = t[k - 1] - t[0] < tuning.settling_s or (relin is not None and relin.x0_fit is None)
+            # with re-linearisation, the settling phase lasts until a full-information fit has passed its test, and
+            # comes back while the latest one fails it
+            settling = t[k - 1] - t[0] < tuning.settling_s or (relin is not None and not relin.trusted)
             _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
             releasing = not settling and t[k - 1] - t[0] < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
             filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau) if releasing else no_directions
@@ -173,8 +174,9 @@ class _Relinearization:
     measurements the filter accepted so far (gated camera sources, the prior
     proxy) are fitted together with its initial ``x̂_0, P_0``
     (:func:`estimators.batch.posterior`); the first fit starts from the
-    filter's estimate run back to ``t[0]``, each later one from the previous
-    fit. A fit that does not pass its chi-square test leaves the filter as it is.
+    filter's estimate run back to ``t[0]``, each later one from the latest
+    fit that passed. A fit that fails its tests (:attr:`estimators.batch.BatchPosterior.usable`)
+    leaves the filter as it is, and puts it back into its settling phase until one passes.
     """
 
     def __init__(self, model, servicer, tau: float, tuning: Tuning, filt, consider):
@@ -182,7 +184,8 @@ class _Relinearization:
         self.x0_prior, self.P0 = filt.x.copy(), filt.P.copy()
         self.first_s, self.every_s = (tuning.settling_s or tuning.relinearize_s), tuning.relinearize_s
         self.history = MeasurementHistory()
-        self.x0_fit = None
+        self.x0_fit = None  #: the initial state of the latest fit that passed, where the next one starts
+        self.trusted = False  #: the latest fit passed its tests
         self.events: list[tuple[float, int, bool]] = []
 
     def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
@@ -201,9 +204,11 @@ class _Relinearization:
                              consider=self.consider, k_states=k_states)
         except BatchFitError:
             self.events.append((float(t_s), 0, False))
+            self.trusted = False
             return
-        self.events.append((float(t_s), post.nodes, post.fits))
-        if post.fits:
+        self.events.append((float(t_s), post.nodes, post.usable))
+        self.trusted = post.usable
+        if post.usable:
             filt.reset(post.x, post.P, f"re-linearisation at t={t_s}")
             self.x0_fit = post.x0
 

@@ -219,7 +219,7 @@ def _step_coarse_stm(x0, s0, J_S, mu, dt, n_steps):
 
 @numba.njit(cache=True)
 def _trajectory_stm(x0, S, J_S, mu, dt, n_steps):
-    """States ``X (N+1, 15)`` on the grid and the error-state transitions ``Φ_k (N+1, 14, 14)`` from ``x0``.
+    """States ``X (N+1, 15)`` on the grid, the error-state transitions ``Φ_k (N+1, 14, 14)`` from ``x0`` and the steps' ``F_k (N, 14, 14)``.
 
     Step ``k`` starts from the servicer's state ``S[k]`` (its AODS), as the
     filters' prediction does; ``Φ_k = F_k ⋯ F_1`` (``Φ_0 = I``) maps an error
@@ -230,15 +230,16 @@ def _trajectory_stm(x0, S, J_S, mu, dt, n_steps):
     N = S.shape[0]
     X = np.empty((N + 1, N_STATE))
     Phi = np.empty((N + 1, N_ERROR, N_ERROR))
+    F = np.empty((N, N_ERROR, N_ERROR))
     X[0] = x0
     Phi[0] = np.eye(N_ERROR)
     for k in range(N):
         if n_steps % 2 == 0:
-            X[k + 1], F = _step_coarse_stm(X[k], S[k], J_S, mu, dt, n_steps)
+            X[k + 1], F[k] = _step_coarse_stm(X[k], S[k], J_S, mu, dt, n_steps)
         else:
-            X[k + 1], F = _rk4_error_state(X[k], S[k], J_S, mu, dt, n_steps)
-        Phi[k + 1] = F @ Phi[k]
-    return X, Phi
+            X[k + 1], F[k] = _rk4_error_state(X[k], S[k], J_S, mu, dt, n_steps)
+        Phi[k + 1] = F[k] @ Phi[k]
+    return X, Phi, F
 
 
 @numba.njit(cache=True)
@@ -323,20 +324,20 @@ class RelativeProcessModel:
         h, n = self._steps(dt)
         return _rk4_error_state(np.asarray(x, dtype=float), np.asarray(servicer, dtype=float), self.J_S_diag, float(self.mu), h, n)
 
-    def trajectory(self, x0, servicer, dt: float, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        """``f`` applied ``N`` times from ``x0``: the states ``X (N+1, 15)`` and, with ``jacobian``, ``Φ (N+1, 14, 14)``.
+    def trajectory(self, x0, servicer, dt: float, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """``f`` applied ``N`` times from ``x0``: the states ``X (N+1, 15)`` and, with ``jacobian``, ``Φ (N+1, 14, 14)`` and ``F (N, 14, 14)``.
 
         ``servicer (N, 13)``: the servicer's state at the start of each step.
-        ``Φ_k`` is the error-state transition from the first grid time to the
-        ``k``-th (the product of the steps' ``F``), what a batch least-squares
-        fit of the initial state needs (:mod:`estimators.batch`).
+        ``F_k`` is step ``k``'s error-state Jacobian and ``Φ_k`` the transition
+        from the first grid time to the ``k``-th (their product), what a batch
+        least-squares fit of the initial state needs (:mod:`estimators.batch`).
         """
         h, n = self._steps(dt)
         x0 = np.asarray(x0, dtype=float)
         S = np.ascontiguousarray(servicer, dtype=float).reshape(-1, N_ABSOLUTE)
         if jacobian:
             return _trajectory_stm(x0, S, self.J_S_diag, float(self.mu), h, n)
-        return _trajectory_states(x0, S, self.J_S_diag, float(self.mu), h, n), None
+        return _trajectory_states(x0, S, self.J_S_diag, float(self.mu), h, n), None, None
 
     def rewind(self, x, servicer, dt: float) -> np.ndarray:
         """The state ``len(servicer)`` steps of ``dt`` before ``x``: RK4 run backwards, step ``j`` from ``servicer[-1 - j]``.
@@ -392,7 +393,7 @@ class LinearProcessModel:
         return F @ np.asarray(x, dtype=float), F
 
     def trajectory(self, x0, u, dt: float, *, jacobian: bool = True):
-        """``X (N+1, n)`` and ``Φ_k = F^k`` for ``N = len(u)`` steps (``u``: any sequence, ignored)."""
+        """``X (N+1, n)``, ``Φ_k = F^k`` and the steps' ``F`` for ``N = len(u)`` steps (``u``: any sequence, ignored)."""
         F = self._F(dt)
         N = len(u)
         Phi = np.empty((N + 1,) + F.shape)
@@ -400,7 +401,7 @@ class LinearProcessModel:
         for k in range(N):
             Phi[k + 1] = F @ Phi[k]
         X = Phi @ np.asarray(x0, dtype=float)
-        return X, (Phi if jacobian else None)
+        return (X, Phi, np.broadcast_to(F, (N,) + F.shape)) if jacobian else (X, None, None)
 
     def rewind(self, x, u, dt: float):
         """The state ``len(u)`` steps before ``x``: ``F^{−N} x``."""
