@@ -68,7 +68,7 @@ def test_batched_harmonic_chi2_equals_least_squares():
 
 
 def test_evenly_spaced_grid_of_frequencies_gives_the_same_chi2_as_one_exponential_each():
-    """Rows of evenly spaced frequencies (phasors by products, :func:`_phasors`) equal the frequencies one by one."""
+    """Rows of evenly spaced frequencies (phasors by products along the row) equal the frequencies one by one."""
     rng = np.random.default_rng(3)
     t = np.sort(rng.uniform(0, 2000, 1500))  # ~ 80 cycles of the highest frequency per row: products accumulate no error
     tc = t - t.mean()
