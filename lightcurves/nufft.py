@@ -110,6 +110,9 @@ def trig_sums(t, h, f0: float, df: float, n: int) -> np.ndarray:
     tau = np.pi * _M_SP / (M * M * _R * (_R - 0.5))
     grid = np.zeros((c.shape[0], Mr), dtype=complex)
     _spread(t, c, 2.0 * np.pi * (f0 + half * df), df, Mr, tau, _M_SP, grid.view(np.float64))
-    k = np.arange(n) - half
-    F = ifft(grid, axis=1, overwrite_x=True)[:, k % Mr] * (np.sqrt(np.pi / tau) * np.exp(k * k * tau))  # ifft's 1/M_r: eq. 9's quadrature
+    G = ifft(grid, axis=1, overwrite_x=True)  # ifft's 1/M_r: eq. 9's quadrature
+    e = np.sqrt(np.pi / tau) * np.exp(np.arange(max(half, n - half) + 1) ** 2 * tau)  # deconvolution e^{k²τ}, even in k
+    F = np.empty((c.shape[0], n), dtype=complex)
+    F[:, :half] = G[:, Mr - half :] * e[half:0:-1]  # k = −half … −1
+    F[:, half:] = G[:, : n - half] * e[: n - half]  # k = 0 … n − 1 − half
     return F if h.ndim == 2 else F[0]
