@@ -10,7 +10,9 @@ Modules: :mod:`~lightcurves.targets` (shapes, materials, mass properties),
 :mod:`~lightcurves.scene` (Mitsuba pieces shared with ``perception``),
 :mod:`~lightcurves.render`, :mod:`~lightcurves.geometry`,
 :mod:`~lightcurves.photometry`, :mod:`~lightcurves.simulate`,
-:mod:`~lightcurves.io`, :mod:`~lightcurves.clean`, :mod:`~lightcurves.prior`.
+:mod:`~lightcurves.io`, :mod:`~lightcurves.clean`, :mod:`~lightcurves.prior`
+(with its compiled kernels :mod:`~lightcurves.nufft`, :mod:`~lightcurves.harmonic_fits`,
+:mod:`~lightcurves.phasors`).
 Importing this package does not import Mitsuba (only ``scene``/``render`` do).
 
 References

@@ -6,8 +6,10 @@ aliased photometry):
 1. check the series; remove a weighted quadratic in time (the slow change of
    phase angle and range over the arc, which is not rotation);
 2. the generalised (floating-mean, weighted) Lomb–Scargle periodogram
-   (astropy's fast ``LombScargle``, Zechmeister & Kürster 2009; its formulas
-   written out so the residuals' periodogram reuses the weight sums) on
+   (Zechmeister & Kürster 2009, in the formulas of astropy's fast
+   ``LombScargle``, written out so the residuals' periodogram reuses the
+   weight sums; the trigonometric sums by the Gaussian-gridding NUFFT of
+   :mod:`lightcurves.nufft`, Greengard & Lee 2004, to ~1e-12) on
    ``[nu_min, nu_max]``; for evenly sampled data ``nu_max`` stops one
    resolution element short of the Nyquist frequency, where the sine term
    vanishes and a fit breaks down;
@@ -16,8 +18,10 @@ aliased photometry):
    year, the gap between passes — whatever the sampling makes), and the
    sub-harmonics ``f/2, f/3`` and harmonic ``2f`` of each;
 4. **ranking**: each candidate ``c`` is scored by the χ² of a ``k``-harmonic
-   Fourier series at ``c`` (``k = 1 … K``, ``K c ≤ nu_max``) refined on a
-   local grid, with the Bayesian information criterion
+   Fourier series at ``c`` (``k = 1 … K``, ``K c ≤ nu_max``; every nested fit
+   from trigonometric sums and one Cholesky factor,
+   :mod:`lightcurves.harmonic_fits`) refined on a local grid, with the
+   Bayesian information criterion
    ``BIC = χ²/s² + (2k + 4) ln N``. A sub-harmonic ``f/n`` wins only when its
    extra (odd) harmonics pay for their parameters — two unequal minima or
    maxima per cycle — not because peaks line up. The best candidate's
@@ -71,6 +75,8 @@ References
 .. [3] VanderPlas, *Understanding the Lomb–Scargle periodogram*, ApJS 236, 16, 2018.
 .. [4] Renis, Price, Hellmich, Battipede, Salzmann, *Leveraging Light-Curve Inversion for Real-Time
    Kinematic State Estimation of Uncooperative Targets*.
+.. [5] Zechmeister & Kürster, *The generalised Lomb–Scargle periodogram*, A&A 496, 577, 2009.
+.. [6] Greengard & Lee, *Accelerating the nonuniform fast Fourier transform*, SIAM Review 46, 443, 2004.
 """
 
 from __future__ import annotations
@@ -78,14 +84,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
+import numba
 import numpy as np
 from astropy.timeseries import LombScargle
-from astropy.timeseries.periodograms.lombscargle.implementations.utils import trig_sum
 from scipy import stats
 from scipy.optimize import least_squares
 
 from lightcurves.clean import WindowCleanResult, window_clean
-from lightcurves.clean_implementations.fast import window as spectral_window
+from lightcurves.harmonic_fits import design, harmonic_chi2, harmonic_set_chi2, sinusoids_fit
+from lightcurves.nufft import trig_sums
+from lightcurves.phasors import cis
 from lightcurves.samples import check_samples
 
 __all__ = ["Candidate", "SpinPrior", "extract_spin_prior"]
@@ -99,11 +107,6 @@ _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
 _TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
-_NUFFT_OVERSAMPLING = 3  #: extirpolation grid of the red-noise spectrum's trig_sum (astropy's default 5): half the FFT length
-#: astropy ≥ 7 computes the fast periodogram by a low-rank NUFFT to 5e-13; 1e-7 is accurate beyond any use here (measured:
-#: largest power error 3e-7 of the maximum on benchmark curves) and halves the time of a survey periodogram (264 -> 142 ms)
-_FAST = {"trig_sum_kwds": {"eps": 1e-7}}
-_BATCH = 400_000  #: complex numbers per batch of the harmonic fits (memory bound)
 _OUTLIER_Z = 3.5  #: samples this many robust σ from the best-ranked fit are left out (Gaussian noise: 5e-4 of them)
 _ODD_ALPHA = 1e-2  #: F-test level at which the odd harmonics of f/2 make f/2 the fundamental
 
@@ -208,112 +211,70 @@ class SpinPrior:
 
 
 # --------------------------------------------------------------------------------------------
-# k-harmonic least squares at many trial frequencies
-
-
-def _phasors(tc: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``e^{2πi f t}`` for a (B, M) block of frequencies, as (B·M, N) rows in ``f``'s row-major order.
-
-    When the columns are evenly spaced by ``δ`` (the local grids and stencils of the ranking all are), only the
-    first column and ``e^{2πiδt}`` are exponentials and the rest are products: a complex exponential costs ~20 ns
-    per element against ~1 ns for a product, and ``M − 1`` products lose ~1e-15 in the phase.
-    """
-    B, M = f.shape
-    E = np.empty((B, M, tc.size), dtype=complex)
-    steps = np.diff(f, axis=1)
-    if M > 1 and np.allclose(steps, steps[0, 0], rtol=1e-9, atol=0.0):
-        _cis(2.0 * np.pi * f[:, :1] * tc[None, :], E[:, 0])
-        step = np.exp(2j * np.pi * steps[0, 0] * tc)
-        for j in range(1, M):
-            np.multiply(E[:, j - 1], step, out=E[:, j])
-    else:
-        _cis(2.0 * np.pi * f[:, :, None] * tc[None, None, :], E)
-    return E.reshape(B * M, tc.size)
-
-
-def _cis(theta: np.ndarray, out: np.ndarray) -> None:
-    """``out = e^{iθ}``, written as cosine and sine into the real and imaginary parts: 5.2 ms against numpy's complex
-    ``exp`` 6.8 ms for 380 000 angles (it also evaluates ``e^0``)."""
-    np.cos(theta, out=out.real)
-    np.sin(theta, out=out.imag)
-
-
-def _harmonic_chi2(tc: np.ndarray, V: np.ndarray, y: np.ndarray, W: np.ndarray, freqs: np.ndarray, K: int) -> np.ndarray:
-    """``χ²_k(f)`` of the weighted fits of ``V`` (a quadratic trend) plus ``cos(2πjft), sin(2πjft)``, ``j ≤ k``,
-    for ``k = 1 … K``: shape (freqs.size, K), frequencies in ``freqs``' row-major order (a 2-D ``freqs`` whose
-    columns are evenly spaced costs one exponential per row, :func:`_phasors`).
-
-    The normal matrix needs only the weighted trigonometric sums
-    ``Σ W e^{i m θ}`` (``m ≤ 2K``), ``Σ W V e^{i j θ}`` and ``Σ W y e^{i j θ}``
-    (``j ≤ K``), ``θ = 2π f t`` — O(N K) per frequency instead of O(N K²).
-    Its Cholesky factor, with the columns ordered by harmonic, gives every
-    nested fit at once: ``χ²_k = yᵀWy − Σ_{p < q + 2k} z_p²``, ``L z = Xᵀ W y``
-    (``q`` trend columns). The trend is fitted jointly: removed beforehand, it
-    takes the part of a few-cycle sinusoid that projects on it.
-    """
-    freqs = np.atleast_2d(np.asarray(freqs, dtype=float))
-    M = freqs.shape[1]
-    q = V.shape[1]
-    out = np.empty((freqs.size, K))
-    j = np.arange(1, K + 1)
-    dif, sm = np.abs(j[:, None] - j[None, :]), j[:, None] + j[None, :]
-    sgn = np.sign(j[:, None] - j[None, :])
-    order = np.r_[np.arange(q), q + np.ravel(np.column_stack([np.arange(K), K + np.arange(K)]))]  # trend, c1, s1, c2, s2 …
-    yWy = float(W @ y**2)
-    VWV = V.T @ (W[:, None] * V)
-    VWy = V.T @ (W * y)
-    rhs_cols = np.concatenate([W[:, None] * V, (W * y)[:, None]], axis=1)  # (N, q+1)
-    step = max(1, _BATCH // (tc.size * M))  # rows of freqs per batch
-    for r0 in range(0, freqs.shape[0], step):
-        E = _phasors(tc, freqs[r0 : r0 + step])
-        nb, b0 = E.shape[0], r0 * M
-        T = np.empty((nb, 2 * K + 1), dtype=complex)  # C_m + i S_m
-        T[:, 0] = W.sum()
-        Q = np.empty((nb, K, q + 1), dtype=complex)  # Σ W V e^{ijθ}, Σ W y e^{ijθ}
-        P = E.copy()  # e^{imθ}, one power at a time (a (B, 2K+1, N) array costs more in memory traffic than it saves)
-        for m in range(1, 2 * K + 1):
-            if m > 1:
-                P *= E
-            T[:, m] = P @ W
-            if m <= K:
-                Q[:, m - 1] = P @ rhs_cols
-        C, S = T.real, T.imag
-        CC = 0.5 * (C[:, dif] + C[:, sm])
-        SS = 0.5 * (C[:, dif] - C[:, sm])
-        CS = 0.5 * (S[:, sm] - sgn * S[:, dif])
-        XV = np.concatenate([Q[:, :, :q].real, Q[:, :, :q].imag], axis=1)  # (B, 2K, q)
-        G = np.block([[np.broadcast_to(VWV, (nb, q, q)), np.swapaxes(XV, 1, 2)], [XV, np.block([[CC, CS], [np.swapaxes(CS, 1, 2), SS]])]])
-        G = G[:, order][:, :, order]
-        rhs = np.concatenate([np.broadcast_to(VWy, (nb, q)), Q[:, :, q].real, Q[:, :, q].imag], axis=1)[:, order]
-        G += 1e-10 * np.trace(G, axis1=1, axis2=2)[:, None, None] / G.shape[1] * np.eye(G.shape[1])
-        L = np.linalg.cholesky(G)
-        z = np.linalg.solve(L, rhs[:, :, None])[:, :, 0]
-        out[b0 : b0 + nb] = yWy - np.cumsum(z**2, axis=1)[:, q + 1 :: 2]
-    return np.maximum(out, 0.0)
-
-
-def _design(tc: np.ndarray, V: np.ndarray, f: float, K: int) -> np.ndarray:
-    """Columns ``V`` (trend), ``cos(2πkft)`` for k = 1 … K, ``sin(2πkft)`` for k = 1 … K."""
-    arg = 2.0 * np.pi * f * np.outer(tc, np.arange(1, K + 1))
-    return np.concatenate([V, np.cos(arg), np.sin(arg)], axis=1)
-
-
-# --------------------------------------------------------------------------------------------
 # noise: an Ornstein–Uhlenbeck process fitted to residuals
+
+
+@numba.njit(cache=True)
+def _lag_bin_bounds(t: np.ndarray, L: int, d_cut: float, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(bounds, n_b, Σ lag_b)``: the pairs ``(i, i + k)``, ``1 ≤ k ≤ L``, with lag ``d ≤ d_cut``, in the bins cut at
+    ``edges`` (increasing; bin ``b`` holds ``edges[b − 1] ≤ d < edges[b]``, the last one everything above).
+
+    The lags of sample ``i`` grow with ``k``, so each bin is a run of ``k``: ``bounds[i, b] ≤ k < bounds[i, b + 1]``.
+    The first partner ``j`` with ``t_j − t_i ≥ edge`` never moves back as ``i`` grows (sorted times), so one pointer per
+    edge sweeps the series once: ``O(25 N)`` comparisons instead of ``O(L N)``.
+    """
+    N, n_bins = t.size, edges.size + 1
+    bounds = np.empty((N, n_bins + 1), dtype=np.int64)
+    bounds[:, 0] = 1
+    j = 1
+    for i in range(N):  # the end of the kept partners: lag beyond the cut, past L or past the series
+        j = max(j, i + 1)
+        while j < N and t[j] - t[i] <= d_cut:
+            j += 1
+        bounds[i, n_bins] = min(j - i, L + 1)
+    for e in range(edges.size):
+        j = 1
+        for i in range(N):
+            j = max(j, i + 1)
+            while j < N and t[j] - t[i] < edges[e]:
+                j += 1
+            bounds[i, e + 1] = min(max(j - i, 1), bounds[i, n_bins])
+    nb = np.zeros(n_bins)
+    lag = np.zeros(n_bins)
+    for i in range(N):
+        for b in range(n_bins):
+            nb[b] += bounds[i, b + 1] - bounds[i, b]
+            for k in range(bounds[i, b], bounds[i, b + 1]):
+                lag[b] += t[i + k] - t[i]
+    return bounds, nb, lag
+
+
+@numba.njit(cache=True)
+def _lag_products(r: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """``Σ r_i r_{i+k}`` over the pairs of each bin of :func:`_lag_bin_bounds`, from the prefix sums of ``r`` (the
+    pairs of a bin are a run of ``k``): ``O(25 N)``."""
+    R = np.zeros(r.size + 1)
+    for m in range(r.size):
+        R[m + 1] = R[m] + r[m]
+    out = np.zeros(bounds.shape[1] - 1)
+    for i in range(r.size):
+        for b in range(out.size):
+            out[b] += r[i] * (R[i + bounds[i, b + 1]] - R[i + bounds[i, b]])
+    return out
 
 
 @dataclass(frozen=True)
 class _LagBins:
     """The lag structure :func:`_correlation_fit` averages over, which depends on the times only: the pairs
-    ``(i, i + k)``, ``k ≤ L = min(N − 1, 200)``, as an (N, L) table, each pair's bin among 25 log-spaced lag bins
-    (bin 25 collects the pairs left out: lag beyond ``T/4`` or past the end), and the fit's τ grid and kernels.
-    Built once per series and shared by the fits to the residuals and to the data (the log and the binning of
-    ``N L`` lags were half of each fit's time)."""
+    ``(i, i + k)``, ``k ≤ L = min(N − 1, 200)``, with lag up to ``T/4``, in 25 log-spaced lag bins from the shortest to
+    the longest such lag, and the fit's τ grid and kernels. Built once per series and shared by the fits to the
+    residuals and to the data. Bins are runs of ``k`` (:func:`_lag_bin_bounds`): a pass over the ``N L`` pairs
+    compares lags with the 24 inner edges, no logarithm (0.3 ms at N = 1900, against 4 ms for the logarithms)."""
 
-    L: int
-    bins: np.ndarray  #: (N·L,) bin of each pair, 25 for the pairs left out
+    bounds: np.ndarray  #: (N, 26) runs of k per sample and bin (:func:`_lag_bin_bounds`)
     nb: np.ndarray  #: pairs per non-empty bin
     ok: np.ndarray  #: which of the 25 bins are non-empty
+    lag: np.ndarray  #: mean lag per non-empty bin (s)
     taus: np.ndarray  #: τ grid (s)
     E: np.ndarray  #: ``exp(−lag_b/τ)`` on (τ grid, non-empty bin)
 
@@ -321,24 +282,16 @@ class _LagBins:
     def of(cls, t: np.ndarray) -> _LagBins:
         T = t[-1] - t[0]
         L = min(t.size - 1, 200)
-        tp = np.concatenate([t, np.full(L, np.inf)])  # times padded with +inf: the pairs past the end are left out
-        D = np.lib.stride_tricks.sliding_window_view(tp, L + 1)[: t.size]
-        d = (D[:, 1:] - D[:, :1]).ravel()
-        keep = d <= 0.25 * T
-        d_min, d_max = d.min(), np.max(d, where=keep, initial=0.0)
-        # 25 log-spaced bins from the shortest to the longest lag (the index by logarithm: a third of a sorted search's time);
-        # in place and without gathering the kept lags: each pass over the N L lags costs ~0.3 ms at N = 1900
+        i = np.arange(t.size - 1)
+        last = np.minimum(np.searchsorted(t, t[:-1] + 0.25 * T, side="right") - 1, i + L)  # each sample's farthest kept partner
+        d_min, d_max = float(np.min(np.diff(t))), float(np.max(t[last] - t[i]))
         lo, hi = np.log(d_min * (1 - 1e-9)), np.log(d_max * (1 + 1e-9))
-        x = np.log(d)
-        x -= lo
-        x *= 25.0 / (hi - lo)
-        np.minimum(x, 24.0, out=x, where=keep)
-        bins = np.where(keep, x, 25.0).astype(np.intp)
-        nb = np.bincount(bins, minlength=26)[:25].astype(float)
+        edges = np.exp(lo + np.arange(1, 25) * ((hi - lo) / 25.0))  # 25 log-spaced bins
+        bounds, nb, lag = _lag_bin_bounds(t, L, 0.25 * T, edges)
         ok = nb > 0
-        lag = np.bincount(bins, np.where(keep, d, 0.0), minlength=26)[:25][ok] / nb[ok]
+        mean_lag = lag[ok] / nb[ok]
         taus = np.geomspace(0.3 * d_min, T, 60)
-        return cls(L, bins, nb[ok], ok, taus, np.exp(-lag[None, :] / taus[:, None]))
+        return cls(bounds, nb[ok], ok, mean_lag, taus, np.exp(-mean_lag[None, :] / taus[:, None]))
 
 
 def _correlation_fit(t: np.ndarray, r: np.ndarray, lags: _LagBins | None = None) -> tuple[float, float]:
@@ -352,11 +305,8 @@ def _correlation_fit(t: np.ndarray, r: np.ndarray, lags: _LagBins | None = None)
     ``lags``: :meth:`_LagBins.of` ``(t)``, when several fits share the times.
     """
     lags = _LagBins.of(t) if lags is None else lags
-    rp = np.concatenate([r, np.zeros(lags.L)])  # residuals padded with 0 (the pairs past the end)
-    R = np.lib.stride_tricks.sliding_window_view(rp, lags.L + 1)[: t.size]
-    p = (R[:, 1:] * R[:, :1]).ravel()
     nb = lags.nb
-    rho = np.bincount(lags.bins, p, minlength=26)[:25][lags.ok] / nb / np.mean(r**2)
+    rho = _lag_products(np.ascontiguousarray(r, dtype=float), lags.bounds)[lags.ok] / nb / np.mean(r**2)
     E = lags.E
     a = np.clip((E * nb * rho).sum(axis=1) / (E * E * nb).sum(axis=1), 0.0, 1.0)
     sse = (nb * (rho - a[:, None] * E) ** 2).sum(axis=1)
@@ -378,38 +328,56 @@ def _ou_quadratic(t: np.ndarray, u: np.ndarray, a: float, tau: float) -> float:
     return float(u @ u + 2.0 * a * acc)
 
 
+@numba.njit(cache=True)
+def _ou_lags(t: np.ndarray, tau: float, width: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(Δ, e^{−Δ/τ})`` of the pairs ``t_k − t_j < 5τ``; when there are more than two pairs per ``width`` of lag
+    (dense sampling, long τ: millions of pairs), binned to ``width``: the ``e^{−Δ/τ}``-weighted mean lag and the
+    summed weight per non-empty bin. A lag moved within ``width = 1e-3/f_max`` moves a phase by < 1e-5 rad."""
+    n_pairs, d_max = 0, 0.0
+    for i in range(t.size - 1):  # the lags of sample i grow with its partner's index: stop at the first ≥ 5τ
+        k = i + 1
+        while k < t.size and t[k] - t[i] < 5.0 * tau:
+            k += 1
+        n_pairs += k - 1 - i
+        d_max = max(d_max, t[k - 1] - t[i])
+    binned = n_pairs > 2.0 * d_max / width
+    d, h = np.zeros(int(d_max / width) + 1 if binned else n_pairs), np.zeros(int(d_max / width) + 1 if binned else n_pairs)
+    g = np.exp(-np.diff(t) / tau)  # e^{−Δ/τ} of a pair is the product of its consecutive factors: one exponential a sample
+    j = 0
+    for i in range(t.size - 1):
+        k = i + 1
+        hk = 1.0
+        while k < t.size and t[k] - t[i] < 5.0 * tau:
+            dk = t[k] - t[i]
+            hk *= g[k - 1]
+            if binned:
+                h[int(dk / width)] += hk
+                d[int(dk / width)] += hk * dk
+            else:
+                h[j], d[j] = hk, dk
+                j += 1
+            k += 1
+    if binned:
+        keep = h > 0.0
+        return d[keep] / h[keep], h[keep]
+    return d, h
+
+
 def _red_spectrum(t: np.ndarray, a: float, tau: float, freq: np.ndarray) -> np.ndarray:
     """Expected periodogram of Ornstein–Uhlenbeck noise sampled at ``t``, relative to white noise of the same variance.
 
     ``E P(f)/σ² = 1 + (2a/N) Σ_{j<k} e^{−Δ_jk/τ} cos(2πfΔ_jk)``, ``Δ_jk = t_k − t_j``: the noise's spectrum seen
     through the sampling window — red noise on nightly sampling raises the periodogram near 0 *and* near
     1/day, 2/day. Only lags under 5τ count (the rest weigh < e⁻⁵); on dense sampling they are binned to
-    1e-3 of the shortest period searched; the sum over lags is a non-uniform FFT (astropy's ``trig_sum``) on a
-    regular ``freq`` grid, direct otherwise. Floored at 0.05.
+    1e-3 of the shortest period searched; the sum over lags is a non-uniform FFT (:func:`~lightcurves.nufft.trig_sums`)
+    on the regular ``freq`` grid. Floored at 0.05.
     """
     if tau <= 0.0 or a <= 0.0:
         return np.ones_like(freq)
-    lags = []
-    for k in range(1, t.size):
-        d = t[k:] - t[:-k]
-        d = d[d < 5.0 * tau]
-        if d.size == 0:
-            break
-        lags.append(d)
-    if not lags:
+    d, h = _ou_lags(t, tau, 1e-3 / freq[-1])
+    if d.size == 0:
         return np.ones_like(freq)
-    d = np.concatenate(lags)
-    h = np.exp(-d / tau)
-    width = 1e-3 / freq[-1]  # lags binned this finely (h-weighted mean lag per bin) move a phase by < 1e-5 rad at most
-    if d.size > 2.0 * d.max() / width:  # dense sampling, long τ: millions of pairs, tens of thousands of bins
-        idx = (d / width).astype(int)
-        H = np.bincount(idx, h)
-        keep = H > 0
-        d, h = np.bincount(idx, h * d)[keep] / H[keep], H[keep]
-    if freq.size > 64:
-        _, C = trig_sum(d, h, freq[1] - freq[0], freq.size, f0=freq[0], use_fft=True, oversampling=_NUFFT_OVERSAMPLING)
-    else:
-        C = np.cos(2.0 * np.pi * np.outer(freq, d)) @ h
+    C = trig_sums(d, h, freq[0], freq[1] - freq[0], freq.size).real
     return np.maximum(1.0 + 2.0 * a * C / t.size, 0.05)
 
 
@@ -495,23 +463,45 @@ def _parabolic(freq: np.ndarray, p: np.ndarray, i: np.ndarray) -> np.ndarray:
     return freq[i] + np.clip(d, -0.5, 0.5) * (freq[1] - freq[0])
 
 
+def _sinusoid_fits(t: np.ndarray, y: np.ndarray, dy: np.ndarray | None, freqs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(power, semi-amplitude)`` of the weighted floating-mean sinusoid fit at each of a few frequencies: astropy's
+    ``LombScargle(t, y, dy).power(freqs, method="cython")`` (standard normalisation) and
+    ``hypot(*model_parameters(f)[1:])``, from the 3 × 3 normal equations of ``[1, sin, cos]`` (Zechmeister & Kürster
+    2009), all frequencies at once, instead of a LombScargle object and one call per frequency (~85 µs each). With
+    ``y`` centred, the constant's right-hand side is 0 and ``χ² = yᵀWy − bᵀθ``."""
+    w = np.ones_like(t) if dy is None else dy**-2.0
+    w = w / w.sum()
+    yc = y - w @ y
+    u = t - t[0]
+    C, S = np.empty((freqs.size, t.size)), np.empty((freqs.size, t.size))
+    for i, f in enumerate(freqs):
+        cis(2.0 * np.pi * f, u, C[i], S[i])
+    sw, cw = S @ w, C @ w
+    ss, sc, cc = (S * S) @ w, (S * C) @ w, (C * C) @ w
+    G = np.stack([np.stack([np.ones_like(sw), sw, cw], -1), np.stack([sw, ss, sc], -1), np.stack([cw, sc, cc], -1)], -2)
+    b = np.stack([np.zeros_like(sw), S @ (w * yc), C @ (w * yc)], -1)
+    theta = np.linalg.solve(G, b[..., None])[..., 0]
+    return np.einsum("fi,fi->f", b, theta) / (w @ yc**2), np.hypot(theta[:, 1], theta[:, 2])
+
+
 # --------------------------------------------------------------------------------------------
 # the steps of extract_spin_prior
 
 
 @dataclass(frozen=True)
 class _Periodogram:
-    """astropy's fast generalised Lomb–Scargle periodogram (``lombscargle_fast``, standard normalisation: Zechmeister
-    & Kürster 2009 with Press & Rybicki's trigonometric sums, by its low-rank NUFFT at ``_FAST``'s accuracy), split so
-    that the sums of the weights — which depend on the times and errors only — are computed once.
+    """The generalised Lomb–Scargle periodogram (standard normalisation: Zechmeister & Kürster 2009, with Press &
+    Rybicki's trigonometric sums) in the formulas and order of astropy's ``lombscargle_fast``, its sums by
+    :func:`~lightcurves.nufft.trig_sums` (1e-12, astropy's default NUFFT asks for 5e-13), split so that the sums of
+    the weights — which depend on the times and errors only — are computed once.
 
-    Written out (the formulas and calls of astropy's ``fast_impl.py``, same powers to the last bit) because the
-    residuals' periodogram on every ``_SAMPLES_PER_PEAK``-th frequency then needs one NUFFT instead of three — it
-    reads the weight sums off the data's grid (``2 f`` of the coarse grid is every ``k``-th point of ``2 f`` too), less
-    the direct sums of the samples left out as outliers: 2.6 -> 0.9 ms on a dense pass (1900 samples, 1000 frequencies).
+    Written out because the residuals' periodogram on every ``_SAMPLES_PER_PEAK``-th frequency then needs one
+    transform instead of three: it reads the weight sums off the data's grid (``2 f`` of the coarse grid is every
+    ``k``-th point of ``2 f`` too), less the sums of the samples left out as outliers. Times are counted from the
+    first sample (the power does not depend on the origin; the phases of the sums are then accurate to ~1e-16 T f).
     """
 
-    t: np.ndarray
+    u: np.ndarray  #: times from the first sample (s)
     wraw: np.ndarray  #: 1/σ² of every sample
     f0: float
     df: float
@@ -522,28 +512,25 @@ class _Periodogram:
     def of(cls, t: np.ndarray, dy: np.ndarray | None, freq: np.ndarray) -> _Periodogram:
         wraw = np.ones_like(t) if dy is None else dy**-2.0
         f0, df, n = float(freq[0]), float(freq[1] - freq[0]), freq.size
+        u = t - t[0]
         w = wraw / wraw.sum()
-        kw = dict(f0=f0, df=df, N=n, use_fft=True, algorithm="lra", **_FAST["trig_sum_kwds"])  # lombscargle_fast's calls
-        S2, C2 = trig_sum(t, w, freq_factor=2, **kw)
-        S, C = trig_sum(t, w, **kw)
-        return cls(t, wraw, f0, df, n, (S, C, S2, C2))
+        F, F2 = trig_sums(u, w, f0, df, n), trig_sums(u, w, 2.0 * f0, 2.0 * df, n)
+        return cls(u, wraw, f0, df, n, (F.imag, F.real, F2.imag, F2.real))
 
     def power(self, y: np.ndarray, keep: np.ndarray | None = None, every: int = 1) -> np.ndarray:
         """Standard-normalised power of ``y`` on every ``every``-th frequency; ``keep``: the samples ``y`` belongs to."""
         S, C, S2, C2 = (a[::every] for a in self.sums)
-        t, wraw = self.t, self.wraw
-        kw = dict(f0=self.f0, df=every * self.df, N=S.size, use_fft=True, algorithm="lra", **_FAST["trig_sum_kwds"])
+        u, wraw, df = self.u, self.wraw, every * self.df
         if keep is not None and not keep.all():  # sums over the kept samples: the whole series' less those of the rest
             out = ~keep
-            # the few samples left out: direct sums when small, else a NUFFT of them (~0.4 ms, against ~3 for all samples)
-            kw_out = {**kw, "use_fft": out.sum() * S.size > 20_000}
-            (So, Co), (S2o, C2o) = (trig_sum(t[out], wraw[out], freq_factor=k, **kw_out) for k in (1, 2))
+            Fo, F2o = trig_sums(u[out], wraw[out], self.f0, df, S.size), trig_sums(u[out], wraw[out], 2.0 * self.f0, 2.0 * df, S.size)
             total, kept_total = wraw.sum(), wraw[keep].sum()
-            S, C, S2, C2 = ((total * a - b) / kept_total for a, b in ((S, So), (C, Co), (S2, S2o), (C2, C2o)))
-            t, wraw = t[keep], wraw[keep]
+            S, C, S2, C2 = ((total * a - b) / kept_total for a, b in ((S, Fo.imag), (C, Fo.real), (S2, F2o.imag), (C2, F2o.real)))
+            u, wraw = u[keep], wraw[keep]
         w = wraw / wraw.sum()
         y = y - np.dot(w, y)
-        Sh, Ch = trig_sum(t, w * y, **kw)
+        Fh = trig_sums(u, w * y, self.f0, df, S.size)
+        Sh, Ch = Fh.imag, Fh.real
         tan_2omega_tau = (S2 - 2 * S * C) / (C2 - (C * C - S * S))
         S2w = tan_2omega_tau / np.sqrt(1 + tan_2omega_tau * tan_2omega_tau)
         C2w = 1 / np.sqrt(1 + tan_2omega_tau * tan_2omega_tau)
@@ -592,7 +579,7 @@ class _Series:
         return _LagBins.of(self.t)
 
     def chi2(self, freqs, K: int) -> np.ndarray:
-        return _harmonic_chi2(self.tc, self.V, self.y, self.W, freqs, K)
+        return harmonic_chi2(self.tc, self.V, self.y, self.W, freqs, K)
 
     def refine(self, f0: float, K: int, half_width: float) -> float:
         """The frequency minimising ``χ²_K`` within ``f0 ± half_width``: the best of 9 points, then the vertices of
@@ -633,7 +620,7 @@ class _Fit:
 
     @classmethod
     def at(cls, s: _Series, f: float, K: int) -> _Fit:
-        X = _design(s.tc, s.V, f, K)
+        X = design(s.tc, s.V, f, K)
         coef, *_ = np.linalg.lstsq(X * s.w[:, None], s.y * s.w, rcond=None)
         return cls(float(f), int(K), X, coef, np.hypot(coef[3 : K + 3], coef[K + 3 :]), s.y - X @ coef, s)
 
@@ -671,7 +658,7 @@ def _trial_frequencies(s: _Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ipk = ipk[s.power[ipk] >= _PEAK_FLOOR * s.power[ipk[0]]]
     peaks = _parabolic(s.freq, s.power, ipk)
     m_win = int(np.ceil(min(s.nu_max, 4.0 / np.median(np.diff(s.t))) / df)) + 1  # the strong window peaks are at low offsets
-    aw = np.abs(spectral_window(s.t, df, m_win))
+    aw = np.abs(trig_sums(s.t - s.t[0], np.ones(s.n), 0.0, df, m_win)) / s.n  # the spectral window |W(j df)|
     aw[: int(1.5 * _SAMPLES_PER_PEAK)] = 0.0  # the main lobe is no alias
     iw = _local_maxima(aw, _N_ALIASES, _SAMPLES_PER_PEAK)
     deltas = df * iw[aw[iw] >= _WINDOW_FLOOR]
@@ -791,21 +778,18 @@ def _odd_harmonic_test(s: _Series, f: float, K: int) -> float | None:
     ``2 f_true``. Measured on the benchmark's survey generator (development seeds 11 and 12, 300 curves): at
     p < 0.01 the test recovers 8 of the 17 curves ranked at ``2 f_true`` and halves none of the 249 ranked right
     (against a ``2K``-harmonic fit at ``f``: 8 and 2; ``K + 2``: 9 and 1). None when ``f/2`` has fewer than 2
-    cycles or too few samples are left for the test. Both fits come from one QR factorisation (the fit at ``f`` is
-    nested in the one with the odd terms). The caller runs it only when the residuals at ``f`` are white (:func:`_correlation_fit`).
+    cycles or too few samples are left for the test. Both fits are nested fits of harmonics of ``f/2`` (the fit at ``f``
+    is the one with its even harmonics 2, 4, … 2K): one :func:`~lightcurves.harmonic_fits.harmonic_set_chi2`. The caller
+    runs it only when the residuals at ``f`` are white (:func:`_correlation_fit`).
     """
     g = 0.5 * f
     odd = [k for k in (1, 3) if k * g <= s.nu_max]
-    arg = 2 * np.pi * g * np.outer(s.tc, odd)
-    X = np.concatenate([_design(s.tc, s.V, f, K), np.cos(arg), np.sin(arg)], axis=1)
     q = 2 * len(odd)
-    dof = s.n - X.shape[1] - 1
+    dof = s.n - (3 + 2 * K + q) - 1
     if dof < 4 or g * s.T < 2.0:
         return None
-    yw = s.y * s.w
-    z = np.linalg.qr(X * s.w[:, None], mode="reduced")[0].T @ yw
-    chi2_g = float(yw @ yw - z @ z)
-    chi2_f = chi2_g + float(z[-q:] @ z[-q:])  # the odd columns are last: dropping their coordinates gives the fit at f
+    c2 = harmonic_set_chi2(s.tc, s.V, s.y, s.W, g, [*range(2, 2 * K + 1, 2), *odd])
+    chi2_f, chi2_g = float(c2[K - 1]), float(c2[-1])
     return float(stats.f.sf((chi2_f - chi2_g) / q / (chi2_g / dof), q, dof)) if chi2_g > 0.0 else None
 
 
@@ -834,12 +818,12 @@ class _Noise:
     spectrum: np.ndarray  #: expected noise periodogram on ``freq`` relative to white noise
     z: np.ndarray  #: periodogram over that spectrum (Exp(1) per frequency for noise)
     fap_max: float  #: false-alarm probability of the periodogram maximum (null: the data are noise)
-    ls_r: LombScargle  #: periodogram of the residuals
 
-    def fap(self, s: _Series, zz: float) -> float:
-        """Baluev (2008) false-alarm probability of a normalised periodogram value ``zz``."""
-        p = -np.expm1(-2.0 * zz / (s.n_periodogram - 3))
-        return float(s.ls.false_alarm_probability(p, method="baluev", minimum_frequency=s.nu_min, maximum_frequency=s.nu_max))
+    def fap(self, s: _Series, zz):
+        """Baluev (2008) false-alarm probability of normalised periodogram values ``zz`` (a float or an array)."""
+        p = -np.expm1(-2.0 * np.asarray(zz, dtype=float) / (s.n_periodogram - 3))
+        out = s.ls.false_alarm_probability(p, method="baluev", minimum_frequency=s.nu_min, maximum_frequency=s.nu_max)
+        return float(out) if np.ndim(out) == 0 else np.asarray(out)
 
 
 def _noise(s: _Series, fit: _Fit) -> _Noise:
@@ -849,7 +833,6 @@ def _noise(s: _Series, fit: _Fit) -> _Noise:
     z_white = -0.5 * (n - 3) * np.log1p(-s.power)  # Exp(1) at one frequency for white noise
     # The continuum is read off the residuals' periodogram (one point per 1/T), in the data's units (times the
     # fraction of the variance left): a strong signal's window sidelobes would raise the data's own continuum.
-    ls_r = LombScargle(s.t, fit.r, s.dy, normalization="standard")
     coarse = s.freq[::_SAMPLES_PER_PEAK]
     p_r = s.pg.power(fit.r, s.kept, _SAMPLES_PER_PEAK)
     z_res = -0.5 * (s.n - 3) * np.log1p(-p_r)
@@ -861,27 +844,25 @@ def _noise(s: _Series, fit: _Fit) -> _Noise:
     # of their correlation. A real signal looks red as well, which costs a weak one its significance.
     a_null, tau_null = _correlation_fit(s.t, s.yd * s.w, s.lags)
     z_null = z_white / np.maximum(spectrum, _red_spectrum(s.t, a_null, tau_null, s.freq))
-    noise = _Noise(a_red, tau, spectrum, z_white / spectrum, 1.0, ls_r)
+    noise = _Noise(a_red, tau, spectrum, z_white / spectrum, 1.0)
     return replace(noise, fap_max=noise.fap(s, float(np.max(z_null))))
 
 
 def _candidates(s: _Series, noise: _Noise, ipk: np.ndarray, f_rot: float, level: float) -> tuple[Candidate, ...]:
-    """The periodogram peaks significant at ``level`` against the noise spectrum, with their harmonic numbers."""
-    out = []
-    for i in ipk:
-        fap_i = noise.fap(s, noise.z[i])
-        if fap_i <= level:
-            a, b = s.ls.model_parameters(s.freq[i])[1:]
-            harmonic = int(np.rint(s.freq[i] / f_rot)) if _is_harmonic(s.freq[i], f_rot, s.T) else None
-            out.append(Candidate(float(s.freq[i]), float(np.hypot(a, b)), fap_i, harmonic))
-    return tuple(out)
+    """The periodogram peaks significant at ``level`` against the noise spectrum, with their harmonic numbers and the
+    semi-amplitudes of sinusoids fitted to the detrended data there."""
+    faps = noise.fap(s, noise.z[ipk]).reshape(-1)
+    sig = ipk[faps <= level]
+    amps = _sinusoid_fits(s.ls.t, s.ls.y, s.ls.dy, s.freq[sig])[1] if sig.size else np.zeros(0)
+    return tuple(Candidate(float(s.freq[i]), float(a), float(fap_i), int(np.rint(s.freq[i] / f_rot)) if _is_harmonic(s.freq[i], f_rot, s.T) else None)
+                 for i, a, fap_i in zip(sig, amps, faps[faps <= level]))
 
 
 def _sigma_statistical(s: _Series, fit: _Fit, noise: _Noise) -> float:
     """Step 6: the 1-σ of ``2π f`` — sandwich estimator with the residuals' Ornstein–Uhlenbeck covariance."""
-    K, coef = fit.K, fit.coef
-    arg = 2 * np.pi * fit.f * np.outer(s.tc, np.arange(1, K + 1))
-    dm_df = 2.0 * np.pi * s.tc * (np.arange(1, K + 1)[None, :] * (-coef[3 : K + 3] * np.sin(arg) + coef[K + 3 :] * np.cos(arg))).sum(axis=1)
+    K, coef, k = fit.K, fit.coef, np.arange(1, fit.K + 1)
+    cos_k, sin_k = fit.X[:, 3 : K + 3], fit.X[:, K + 3 :]  # cos 2πkft, sin 2πkft
+    dm_df = 2.0 * np.pi * s.tc * (sin_k @ (-k * coef[3 : K + 3]) + cos_k @ (k * coef[K + 3 :]))
     J = np.column_stack([fit.X, dm_df]) * s.w[:, None]
     u = J @ np.linalg.pinv(J.T @ J)[:, -1]
     rw = fit.r * s.w
@@ -892,27 +873,19 @@ def _sigma_statistical(s: _Series, fit: _Fit, noise: _Noise) -> float:
 def _npa(s: _Series, fit: _Fit, noise: _Noise, peaks: np.ndarray, s2: float, level: float, ratio: float) -> bool:
     """Step 7: non-principal-axis tumbling — (a) a strong residual frequency that is no harmonic of the fit's, or
     (b) two unrelated sinusoids (the two strongest periodogram peaks, refined) fit better than the harmonic series (BIC)."""
-    p_r = np.clip(noise.ls_r.power(peaks, method="cython"), 0.0, 1.0 - 1e-12)  # a second strong frequency is among the peaks
-    zr = -0.5 * (s.n - 3) * np.log1p(-p_r) / np.interp(peaks, s.freq, noise.spectrum)
+    p_r, a_r = _sinusoid_fits(s.t, fit.r, s.dy, peaks)  # the residuals' periodogram: a second strong frequency is among the peaks
+    zr = -0.5 * (s.n - 3) * np.log1p(-np.clip(p_r, 0.0, 1.0 - 1e-12)) / np.interp(peaks, s.freq, noise.spectrum)
     j_r = int(np.argmax(zr))
-    f_r = float(peaks[j_r])
-    amp_r = float(np.hypot(*noise.ls_r.model_parameters(f_r)[1:]))
+    f_r, amp_r = float(peaks[j_r]), float(a_r[j_r])
     if noise.fap(s, zr[j_r]) <= level and amp_r >= ratio * fit.amps.max() and not _is_harmonic(f_r, fit.f, s.T):
         return True
     if peaks.size < 2 or _is_harmonic(peaks[1], peaks[0], s.T) or _is_harmonic(peaks[0], peaks[1], s.T):
         return False
-    yw = s.y * s.w
-
-    def two_sinusoids(fs):
-        X2 = np.concatenate([s.V, *(np.column_stack([np.cos(2 * np.pi * f * s.tc), np.sin(2 * np.pi * f * s.tc)]) for f in fs)], axis=1) * s.w[:, None]
-        G = X2.T @ X2
-        c2 = np.linalg.solve(G + 1e-12 * np.trace(G) * np.eye(7), X2.T @ yw)  # normal equations: 7 columns, well conditioned at distinct frequencies
-        return yw - X2 @ c2, c2
-
+    tc, V, y, w = (np.ascontiguousarray(a) for a in (s.tc, s.V, s.y, s.w))
     # variable projection: Levenberg–Marquardt on the two frequencies, the seven linear terms solved at each step
     # (a tenth of the evaluations Nelder–Mead needed)
-    res2 = least_squares(lambda fs: two_sinusoids(fs)[0], peaks[:2], method="lm", x_scale=np.full(2, 1.0 / s.T), xtol=1e-6)
-    e2, cf = two_sinusoids(res2.x)
+    res2 = least_squares(lambda fs: sinusoids_fit(tc, V, y, w, fs)[0], peaks[:2], method="lm", x_scale=np.full(2, 1.0 / s.T), xtol=1e-6)
+    e2, cf = sinusoids_fit(tc, V, y, w, res2.x)
     c2_two = float(e2 @ e2)
     a_two = np.hypot(cf[[3, 5]], cf[[4, 6]])
     bic_two = c2_two / s2 + 9 * np.log(s.n)
