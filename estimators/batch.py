@@ -56,6 +56,16 @@ of the last state, 14 dof, band 0.87–1.14):
   steps in band to 19 % (mean NEES/dof 1.19): the fit learns ``k`` from the
   same sensitivity and the estimated states with it.
 
+*A prior that contradicts the data.* §6 of Renis et al. starts the filters
+from a fixed guess (``r = 0`` with the target 50 m away, ``q_TS = 1``) that the
+default ``P_0`` (1 m on the position) does not describe; the filters recover
+from it within a few measurements, but as a term of the fit it would pull the
+whole trajectory 50 σ towards it. A component of the fitted initial state more
+than :data:`PRIOR_Z` prior standard deviations from the prior mean (5 σ: a
+chance of 6e-7 when the prior is right, so the draws of a consistent prior
+never trip it) has its prior made nearly flat and the fit is redone; the data
+alone determine the attitude, the position and their rates within seconds.
+
 A fit whose minimum cost exceeds the 99.9 % quantile of its chi-square (the
 measurements' degrees of freedom) has not found the data's trajectory (a
 local minimum from a poor start): :attr:`BatchPosterior.usable` says so, and
@@ -87,6 +97,14 @@ MAX_ITERATIONS = 30
 COST_TOL = 1e-3
 #: Chi-square quantile above which a fit's minimum is not the data's trajectory.
 FIT_QUANTILE = 0.999
+#: Smallest eigenvalue of a usable covariance relative to its largest: below it a filter cannot factor it (the UKF's
+#: Cholesky failed on SC2 at 1e-17). On SC2's intermediate-axis spin the data pin the unstable mode's initial amplitude
+#: to ``e^{−λt}`` (λ up to 0.16 /s), which a long fit resolves beyond double precision; SC1 and SC3 stay near 1e-11 at 300 s.
+MIN_EIGEN_RATIO = 1e-14
+#: A fitted initial state this many prior standard deviations from the prior mean in one component contradicts the prior
+#: there; that component's prior variance is then multiplied by :data:`FLAT_PRIOR_SCALE` (nearly flat) and the fit redone.
+PRIOR_Z = 5.0
+FLAT_PRIOR_SCALE = 1e6
 
 
 class BatchFitError(ValueError):
@@ -133,8 +151,8 @@ class BatchPosterior:
     Levenberg–Marquardt steps; ``nodes``: quadrature nodes along the weak
     inertia direction (0: Laplace). ``usable``: ``cost`` below the
     :data:`FIT_QUANTILE` of ``χ²(dof)`` (else a local minimum or an
-    unmodelled error) and no consider term beyond an estimated state's prior
-    variance.
+    unmodelled error), no consider term beyond an estimated state's prior
+    variance, and ``P`` factorable (:data:`MIN_EIGEN_RATIO`).
     """
 
     x: np.ndarray
@@ -145,6 +163,9 @@ class BatchPosterior:
     usable: bool
     iterations: int
     nodes: int
+    prior_flattened: tuple[int, ...] = ()  #: error-state indices whose prior contradicted the data (:data:`PRIOR_Z`)
+    #: the weak inertia direction the quadrature integrated over (n_error,), ``None`` without quadrature
+    weak_direction: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -255,7 +276,7 @@ def _initial_root(lin: _Linearisation, P0: np.ndarray, est: np.ndarray, con: np.
 
 
 def _weak_quadrature(problem: _Problem, x0: np.ndarray, lin: _Linearisation, G0: np.ndarray, k_idx: np.ndarray):
-    """Mean and covariance of the last state by quadrature along the weak inertia direction; ``None`` when not needed.
+    """``(x, P, u)``: mean and covariance of the last state by quadrature along the weak inertia direction ``u``; ``None`` when not needed.
 
     ``G0``: a root of the Laplace covariance of the initial state; ``k_idx``:
     the error-state indices of ``k1, k2``. See the module docstring.
@@ -286,7 +307,7 @@ def _weak_quadrature(problem: _Problem, x0: np.ndarray, lin: _Linearisation, G0:
     m = w @ D
     # the mixture's covariance Σ w_j (C_j + (d_j − m)(d_j − m)ᵀ), as the Gram matrix of one stacked root
     L = np.hstack([np.sqrt(wj) * np.hstack([Gj, (dj - m)[:, None]]) for wj, Gj, dj in zip(w, roots, D)])
-    return problem.model.boxplus(lin.x_end, m), L @ L.T
+    return problem.model.boxplus(lin.x_end, m), L @ L.T, u
 
 
 def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end: int, dt: float, *, k_start: int = 0,
@@ -310,18 +331,33 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
     n = problem.P0.shape[0]
     con = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
     est = np.setdiff1d(np.arange(n), con)
-    x0, lin, steps = problem.minimise(np.asarray(x0_prior if x0_start is None else x0_start, dtype=float), np.eye(n)[:, est])
+    start = problem.x0_prior if x0_start is None else np.asarray(x0_start, dtype=float)
+    held = np.zeros(n)
+    held[con] = problem.model.boxminus(problem.x0_prior, start)[con]  # the held states at the prior's values
+    x0, lin, steps = problem.minimise(problem.model.boxplus(start, held), np.eye(n)[:, est])
+    z = problem.model.boxminus(x0, problem.x0_prior) / np.sqrt(np.diag(problem.P0))
+    flat = np.flatnonzero(np.abs(z) > PRIOR_Z)
+    if flat.size:  # the prior contradicts the data there: let the data decide (module docstring)
+        P0_flat = problem.P0.copy()
+        P0_flat[flat, :] = P0_flat[:, flat] = 0.0
+        P0_flat[flat, flat] = np.diag(problem.P0)[flat] * FLAT_PRIOR_SCALE
+        problem = _Problem(model, servicer, history, x0_prior, P0_flat, k_start, k_end, dt)
+        x0, lin, more = problem.minimise(x0, np.eye(n)[:, est])
+        steps += more
     G0 = _initial_root(lin, problem.P0, est, con)
-    x, P, nodes = lin.x_end, _end_covariance(problem, x0, con), 0
+    x, P, nodes, weak = lin.x_end, _end_covariance(problem, x0, con), 0, None
     # a consider term beyond the estimated states' prior: the held states, not the data, decide the fit (SC2, module docstring)
     held_dominate = bool(con.size) and bool(np.any(np.sum(G0[est] ** 2, axis=1) > np.diag(problem.P0)[est]))
     if k_states is not None and not con.size:
         moments = _weak_quadrature(problem, x0, lin, G0, np.asarray(k_states, dtype=int))
         if moments is not None:
-            (x, P), nodes = moments, len(NODES)
+            (x, P, weak), nodes = moments, len(NODES)
     fits = bool(lin.cost <= chi2.ppf(FIT_QUANTILE, max(problem.dof, 1)))
-    return BatchPosterior(x=x, P=0.5 * (P + P.T), x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate,
-                          iterations=steps, nodes=nodes)
+    P = 0.5 * (P + P.T)
+    eig = np.linalg.eigvalsh(P)
+    conditioned = bool(eig[0] > MIN_EIGEN_RATIO * eig[-1])
+    return BatchPosterior(x=x, P=P, x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate and conditioned,
+                          iterations=steps, nodes=nodes, prior_flattened=tuple(int(i) for i in flat), weak_direction=weak)
 
 
 def _end_covariance(problem: _Problem, x0: np.ndarray, con: np.ndarray) -> np.ndarray:

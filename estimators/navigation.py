@@ -135,7 +135,10 @@ def run_navigation(
             settling = t[k - 1] - t[0] < tuning.settling_s or (relin is not None and not relin.trusted)
             _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
             releasing = not settling and t[k - 1] - t[0] < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
-            filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau) if releasing else no_directions
+            if releasing:
+                filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau)
+            else:
+                filt.consider_directions = relin.weak_direction if relin is not None and relin.trusted else no_directions
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
@@ -186,6 +189,9 @@ class _Relinearization:
         self.history = MeasurementHistory()
         self.x0_fit = None  #: the initial state of the latest fit that passed, where the next one starts
         self.trusted = False  #: the latest fit passed its tests
+        #: (1, n_error) or (0, n_error): the weak inertia direction of the latest fit's quadrature, which the filter
+        #: considers until the next fit (its posterior along it is not Gaussian: the fit, not the filter, learns it)
+        self.weak_direction = np.zeros((0, N_ERROR))
         self.events: list[tuple[float, int, bool]] = []
 
     def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
@@ -208,6 +214,7 @@ class _Relinearization:
             return
         self.events.append((float(t_s), post.nodes, post.usable))
         self.trusted = post.usable
+        self.weak_direction = np.zeros((0, N_ERROR)) if post.weak_direction is None else post.weak_direction[None, :]
         if post.usable:
             filt.reset(post.x, post.P, f"re-linearisation at t={t_s}")
             self.x0_fit = post.x0

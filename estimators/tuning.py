@@ -176,6 +176,10 @@ TUNINGS.update({
 })
 
 
+#: The tuning of ``lcnav run`` (with or without a prior) and of issue 12's consistency criterion.
+DEFAULT_TUNING = "relinearized"
+
+
 def get_tuning(name: str) -> Tuning:
     """The tuning called ``name``; ValueError naming the known ones otherwise."""
     try:

@@ -33,9 +33,9 @@ import typer
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
-from estimators.prior import PROXY_MODES, BodyRatePrior, tuning_for_prior
+from estimators.prior import PROXY_MODES, BodyRatePrior
 from estimators.state import DK, K_STATES, N_ERROR, W_B
-from estimators.tuning import TUNINGS, get_tuning
+from estimators.tuning import DEFAULT_TUNING, TUNINGS, get_tuning
 from perception.simulated_pose import parse_faults
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
@@ -158,7 +158,9 @@ def run(
                                               callback=v.path_text()),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
-    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: from the prior, else 'settled'.", callback=v.text(TUNINGS)),
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: '{DEFAULT_TUNING}' (consistent, with or "
+                                         "without a prior; the prior enters as the initial condition). The paper's choice by the prior: "
+                                         "sc1-settled ... sc4-settled.", callback=v.text(TUNINGS)),
     p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states).", callback=v.text()),
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
     runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),
@@ -258,7 +260,7 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     tr = simulate_truth(sc, duration, dt)
     if spin is None and prior != "none":
         spin = BodyRatePrior.from_truth(tr.target[0, W_B], prior_error)
-    tuning_name = tuning or (tuning_for_prior(spin) if spin is not None and prior != "none" else "settled")
+    tuning_name = tuning or DEFAULT_TUNING
     tun = get_tuning(tuning_name)
     consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
     config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
