@@ -34,8 +34,8 @@ How the attitude is carried (the paper's global MRP fails on fast tumblers):
   ``tests/estimators/test_combina_attitude.py``). The paper-era setting, one RK4 step per 3 s
   prediction, loses the attitude above ~0.3 rad/s. The loop over rows and steps is compiled
   (:func:`propagate_rigid_body`, shared with :mod:`estimators.combina.acquisition`, which integrates
-  thousands of rows and also backwards): a 3 s prediction at 1 rad/s is 30 steps of a few scalar
-  operations, where numpy's per-call overhead dominated the closed loop's run time.
+  thousands of rows): a 3 s prediction at 1 rad/s is 30 steps of a few scalar operations, where
+  numpy's per-call overhead dominated the closed loop's run time.
 * **Process noise** (the paper has ``Q = 0``): ``Q`` per prediction, e.g.
   :func:`attitude_process_noise` (see there).
 * **Measurement.** Eq. 30 becomes ``z = δσ_meas``, the error MRP of the
@@ -182,7 +182,7 @@ def _rigid_body_rk4_nb(Y, h, n_sub):
 
 
 def propagate_rigid_body(Y: np.ndarray, dt_s: float, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1) -> np.ndarray:
-    """Rows ``[q_IT (4), ω_T (3), k (2)]`` (m, 9) integrated over ``dt_s`` (negative: backwards) with eqs 28–29, ``k̇ = 0``.
+    """Rows ``[q_IT (4), ω_T (3), k (2)]`` (m, 9) integrated over ``dt_s`` with eqs 28–29, ``k̇ = 0``.
 
     RK4 (compiled, :func:`_rigid_body_rk4_nb`) with a step of at most
     ``max_step_s`` and at most ``max_angle_rad`` of rotation at the rows'

@@ -20,7 +20,8 @@ ones agree (:meth:`_ClosedLoop._restart_translation`): its ``P_0`` is its initia
 covariance, so a start drawn beyond the gate (1 % of the draws) rejected every
 measurement for good. Once a rigid body fits the
 first ``ACQUISITION_MEASUREMENTS`` scale-accepted measured attitudes, the attitude
-filter restarts from their batch MAP estimate with eq. 48's prior
+filter restarts from the batch MAP estimate of its initial state given them and
+eq. 48's prior, predicted to the current epoch
 (:func:`estimators.combina.acquisition.acquire_attitude`, :meth:`_ClosedLoop._acquire`):
 on a fast tumbler the UKF's Gaussian first updates, with ``k`` uncertain by 0.3,
 settled in wrong ``(ω, k)`` basins or overflowed. An attitude filter that has
@@ -555,7 +556,7 @@ class _ClosedLoop:
 
     def _acquire(self, ti: float, q_IT_meas: np.ndarray) -> None:
         """Add a measured attitude to the acquisition window; once it is full, restart the attitude filter from the window's batch
-        acquisition with the initial estimate's prior (eq. 48's ``P_0``) if a rigid body fits it, else slide the window."""
+        acquisition of the initial state (eq. 48's prior) if a rigid body fits it, else slide the window."""
         self.arc.append((ti, q_IT_meas))
         if len(self.arc) < ACQUISITION_MEASUREMENTS:
             return
@@ -564,6 +565,7 @@ class _ClosedLoop:
         self.acquisition_attempts += 1
         if a is not None and a.fits():
             self.att = AttitudeUKF(a.x, a.P, Q=attitude_process_noise, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+            self.att.predict(ti - a.t_s)  # the initial state's posterior, carried to now by the filter's own unscented prediction
             self.att_rejections, self.rejected_a = [], 0
             self.arc, self.acquisition_time_s = None, ti
         elif self.acquisition_attempts >= ACQUISITION_ATTEMPTS:

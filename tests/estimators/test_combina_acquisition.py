@@ -5,7 +5,7 @@ import pytest
 
 from estimators.attitude import attitude_angle, mrp_to_quat, quat_conjugate, quat_multiply, quat_to_mrp, random_quaternion, rotvec_to_quat
 from estimators.combina.acquisition import acquire_attitude
-from estimators.combina.attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k, propagate_rigid_body
+from estimators.combina.attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k
 from estimators.dynamics import inertia_from_k, integrate_absolute
 
 TU_S = 963.65  # the CoMBiNa scenario's time unit (1/n)
@@ -86,7 +86,7 @@ def test_a_misregistration_is_left_out():
     assert a is not None and a.fits()
     np.testing.assert_array_equal(a.used, [True, True, False, True, True])
     assert np.linalg.norm(a.x[6:] - k) < 0.1
-    assert attitude_angle(truth.q_IB[-1], mrp_to_quat(a.x[:3])) < np.deg2rad(3.0)
+    assert attitude_angle(truth.q_IB[0], mrp_to_quat(a.x[:3])) < np.deg2rad(3.0)
 
 
 def test_a_random_roll_fits_no_rigid_body():
@@ -97,32 +97,30 @@ def test_a_random_roll_fits_no_rigid_body():
         assert a is None or not a.fits()
 
 
-def test_covariance_is_the_residuals_curvature_in_the_filters_chart():
-    """Where the problem is nearly linear (0.3 rad/s, k known to 0.01), the acquisition's NEES (8 dof) over 40 seeds has the χ²
-    mean within its 99.8 % band, with the error MRP of :class:`AttitudeUKF` (truth = estimate ⊗ q(δσ)): the Laplace
-    covariance is in the chart the filter restarts from. (With eq. 48's k 1-σ of 0.3 the posterior is curved along
-    ω(t_n) ≈ ω(t_0) + ∫ω̇(k): its rate is known to 3e-4 rad/s at t_0 and the Gaussian is only the start the filter refines.)"""
+@pytest.mark.slow
+def test_initial_state_posterior_is_consistent_and_the_filter_carries_it():
+    """The acquisition's NEES (8 dof) of the initial state over 30 random rigid bodies at 0.9 rad/s (eq. 48's prior, 4 attitudes):
+    mean within the 99.8 % band of χ²₈, in the error MRP of :class:`AttitudeUKF` (truth = estimate ⊗ q(δσ)); and the UKF
+    started from it and predicted to the last epoch stays consistent there (mean in the same band).
+
+    Measured: means 8.6 at t_0 and 9.4 at the last epoch (medians 8.2 and 6.5). The Laplace covariance of the MAP
+    *last* state (where ω(t_n) ≈ ω(t_0) + ∫ω̇(k) is curved in k) had a median NEES of 75 on the same arcs, 14 of 30 above 10²."""
     from scipy.stats import chi2
 
-    P0_k = P0.copy()
-    P0_k[6:, 6:] = 1e-4 * np.eye(2)
-    nees = []
-    for seed in range(40):
-        t, q_meas, x0, truth, k = _arc(100 + seed, 0.3, 4)
-        x0[6:] = k + 0.01 * np.random.default_rng(seed).normal(size=2)
-        a = acquire_attitude(t, q_meas, SD_ATT, x0, P0_k)
-        e = np.concatenate([quat_to_mrp(quat_multiply(quat_conjugate(mrp_to_quat(a.x[:3])), truth.q_IB[-1])), truth.w_B[-1] - a.x[3:6], k - a.x[6:]])
-        nees.append(float(e @ np.linalg.solve(a.P, e)))
-    lo, hi = chi2.ppf([0.001, 0.999], 8 * len(nees)) / len(nees)
-    assert lo <= np.mean(nees) <= hi, np.mean(nees)
-
-
-def test_backward_propagation_retraces_the_forward_one():
-    """The acquisition integrates its residuals backwards in time: +3 s then −3 s returns every row (up to 2 rad/s) to 1e-9."""
-    rng = np.random.default_rng(0)
-    Y = np.concatenate([np.array([random_quaternion(rng) for _ in range(5)]), rng.normal(size=(5, 3)), rng.uniform(-0.5, 0.5, (5, 2))], axis=1)
-    back = propagate_rigid_body(propagate_rigid_body(Y, 3.0), -3.0)
-    np.testing.assert_allclose(back, Y, rtol=0, atol=1e-9)
+    nees_0, nees_n = [], []
+    for seed in range(30):
+        t, q_meas, x0, truth, k = _arc(200 + seed, 0.9, 4)
+        a = acquire_attitude(t, q_meas, SD_ATT, x0, P0)
+        assert a.t_s == 0.0
+        e = np.concatenate([quat_to_mrp(quat_multiply(quat_conjugate(mrp_to_quat(a.x[:3])), truth.q_IB[0])), truth.w_B[0] - a.x[3:6], k - a.x[6:]])
+        nees_0.append(float(e @ np.linalg.solve(a.P, e)))
+        f = AttitudeUKF(a.x, a.P, Q=attitude_process_noise)
+        f.predict(t[-1] - a.t_s)
+        e = np.concatenate([f.error_mrp(truth.q_IB[-1]), truth.w_B[-1] - f.x[3:6], k - f.x[6:]])
+        nees_n.append(float(e @ np.linalg.solve(f.P, e)))
+    lo, hi = chi2.ppf([0.001, 0.999], 8 * 30) / 30
+    assert lo <= np.mean(nees_0) <= hi, np.mean(nees_0)
+    assert lo <= np.mean(nees_n) <= hi, np.mean(nees_n)
 
 
 def test_bad_input():
