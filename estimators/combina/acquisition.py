@@ -189,20 +189,16 @@ def _local_minima(cost_full: np.ndarray) -> np.ndarray:
     return idx[np.argsort(cost_full.ravel()[idx])]
 
 
-def _grid_step(arc: _Arc, k_step: float, n_sd: float, n_basins: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def _grid_step(arc: _Arc, k_step: float, n_sd: float, n_basins: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Step 1: ``[(row [q_IT, ω, k] (9,) at t_0, used (n,))]`` of the ``n_basins`` lowest grid basins.
 
     ``used``: the measurements within the outlier quantile of the basin's grid point.
     """
     x0, P0 = arc.x0, arc.L0 @ arc.L0.T
     k, mask = _k_grid(x0[6:8], np.sqrt(np.diag(P0)[6:8]), k_step, n_sd)
-    m, n = k.shape[0], arc.t.size
-    Y = np.concatenate([np.tile([1.0, 0.0, 0.0, 0.0], (m, 1)), np.tile(x0[3:6], (m, 1)), k], axis=1)
-    dq = np.empty((n, m, 4))  # body-frame rotation from t_0 to t_i per grid point
-    t_prev = arc.t0
-    for i, ti in enumerate(arc.t):
-        Y = propagate_rigid_body(Y, ti - t_prev, **arc.steps)
-        dq[i], t_prev = Y[:, :4], ti
+    m = k.shape[0]
+    dq = arc.forwards(np.concatenate([np.tile([1.0, 0.0, 0.0, 0.0], (m, 1)), np.tile(x0[3:6], (m, 1)), k], axis=1))  # body rotation t_0 → t_i
+    dq = np.swapaxes(dq, 0, 1)  # (n, m, 4)
     q0, chi = _consensus_attitude(quat_multiply(arc.q[:, None, :], quat_conjugate(dq)), arc.sd)  # from each measurement's q(t_0)
     Y0 = np.concatenate([q0, np.tile(x0[3:6], (m, 1)), k], axis=1)
     cost = np.sum(np.minimum(chi, OUTLIER_CHI2), axis=0) + np.sum(arc.prior_residuals(Y0) ** 2, axis=1)
