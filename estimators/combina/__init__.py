@@ -2,6 +2,7 @@
 
 * :mod:`estimators.combina.translation` — translational UKF in LVLH (§IV.A);
 * :mod:`estimators.combina.attitude` — attitude and inertia-ratio UKF (§IV.B, eqs 25–32);
+* :mod:`estimators.combina.acquisition` — the batch (MAP) start of that UKF from its first measured attitudes;
 * :mod:`estimators.combina.axisymmetric` — the axisymmetric mode (§V.A, eqs 35–46);
 * :mod:`estimators.combina.symmetry` — symmetry detection (§V, eq. 34) and the roll self-registration test;
 * :mod:`estimators.combina.gates` — their measurement gates;

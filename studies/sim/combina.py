@@ -14,7 +14,17 @@ the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
 noise is not modelled. Attitude process noise:
 :func:`estimators.combina.attitude.attitude_process_noise`. A filter that
 rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
-covariance reset to ``P_0`` (divergence recovery). An attitude filter that has
+covariance reset to ``P_0`` (divergence recovery); the translational filter is
+restarted instead from the last measured positions when three consecutive
+ones agree (:meth:`_ClosedLoop._restart_translation`): its ``P_0`` is its initial
+covariance, so a start drawn beyond the gate (1 % of the draws) rejected every
+measurement for good. Once a rigid body fits the
+first ``ACQUISITION_MEASUREMENTS`` scale-accepted measured attitudes, the attitude
+filter restarts from the batch MAP estimate of its initial state given them and
+eq. 48's prior, predicted to the current epoch
+(:func:`estimators.combina.acquisition.acquire_attitude`, :meth:`_ClosedLoop._acquire`):
+on a fast tumbler the UKF's Gaussian first updates, with ``k`` uncertain by 0.3,
+settled in wrong ``(ω, k)`` basins or overflowed. An attitude filter that has
 lost the target (its rate less certain than two consecutive measurements make
 it, or most of its recent measurements rejected while the symmetry detector's
 discrepancies do not point to a symmetric target) is restarted from the last
@@ -64,6 +74,7 @@ from typing import Protocol
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
+from estimators.combina.acquisition import acquire_attitude
 from estimators.combina.attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
 from estimators.combina.axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, wrap_pi
 from estimators.combina.gates import mahalanobis_gate, scale_gate
@@ -108,6 +119,11 @@ PHYSICAL_SIGMA_POINTS = False
 #: attitude measurements rejected (a consistent filter with 5 % outliers: probability 4e-5), or the rate's 1-σ above
 #: LOST_RATE_FACTOR times that of the rate two consecutive measurements give.
 LOST_WINDOW, LOST_REJECTIONS, LOST_RATE_FACTOR = 8, 5, 2.0
+#: The attitude filter is restarted from the batch acquisition (:func:`estimators.combina.acquisition.acquire_attitude`, with eq. 48's
+#: prior) of the last ACQUISITION_MEASUREMENTS scale-accepted measured attitudes, once a rigid body fits them
+#: (:meth:`estimators.combina.acquisition.AttitudeAcquisition.fits`); after ACQUISITION_ATTEMPTS windows that no rigid body fits
+#: (an axisymmetric target's random roll) the filter is left to itself.
+ACQUISITION_MEASUREMENTS, ACQUISITION_ATTEMPTS = 4, 8
 #: Clouds in the window of the geometric symmetry test (rendered chain): 5, so a ``--quick`` run (~16 frames) can detect.
 ROLL_WINDOW = 5
 SOURCES = ("simulated", "rendered")
@@ -265,6 +281,8 @@ class CombinaRun:
     registration_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: the registration's part of it (the source's ``measure``)
     proxy_updates: int = 0
     reacquisitions: int = 0  #: times the attitude filter was restarted from the measurements (:meth:`_ClosedLoop.reacquire`)
+    translation_restarts: int = 0  #: times the translational filter was restarted from the measurements (:meth:`_ClosedLoop._restart_translation`)
+    acquisition_time_s: float | None = None  #: when the attitude filter restarted from the batch acquisition (:meth:`_ClosedLoop._acquire`; None: never)
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
     #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
@@ -351,10 +369,13 @@ class _ClosedLoop:
 
     def __init__(self, cfg: CombinaConfig, truth: LvlhTruth, source: MeasurementSource, rng: np.random.Generator):
         self.cfg, self.truth, self.source, self.rng = cfg, truth, source, rng
-        x0_s, self.P0_s, x0_a, self.P0_a, self.prior_rate = _initial_estimates(cfg, truth, rng)
+        x0_s, self.P0_s, self.x0_a, self.P0_a, self.prior_rate = _initial_estimates(cfg, truth, rng)
         self.R_s, self.R_axis, self.R_a = _measurement_noise(source)
         self.trans = TranslationalUKF(x0_s, self.P0_s, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS)
-        self.att = AttitudeUKF(x0_a, self.P0_a, Q=attitude_process_noise, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+        self.att = AttitudeUKF(self.x0_a, self.P0_a, Q=attitude_process_noise, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+        self.arc: list[tuple[float, np.ndarray]] | None = []  # the acquisition window's measured attitudes (None once acquired or given up)
+        self.acquisition_attempts = 0
+        self.acquisition_time_s: float | None = None
         self.model_T = getattr(source, "model_T", None)
         self.roll_test = None if self.model_T is None else RollSymmetryTest(self.model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
         self.C_post_fed = quat_to_dcm(self.att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
@@ -372,6 +393,8 @@ class _ClosedLoop:
         self.reacquisitions = 0
         self.att_rejections: list[bool] = []  # the attitude gate's decisions (True: rejected)
         self.last_att_meas: list[tuple[float, np.ndarray]] = []  # the last three scale-accepted measured attitudes (t, q_IT)
+        self.last_pos_meas: list[tuple[float, np.ndarray]] = []  # the last three scale-accepted measured positions (t, r_L)
+        self.translation_restarts = 0
         n_meas = truth.t.size - 1
         self.iteration_s = np.zeros(n_meas)
         self.registration_s = np.zeros(n_meas)
@@ -391,6 +414,7 @@ class _ClosedLoop:
         g_scale_a = scale_gate(m.scale, t=ti, source="attitude" if self.axi is None else "axis")
         self.gates += [g_scale_s, g_scale_a]
         if g_scale_s.accepted:
+            self.last_pos_meas = [*self.last_pos_meas[-2:], (ti, m.r_L)]
             self._correct_translation(ti, m)
         switched = False
         if self.axi is None:
@@ -401,7 +425,8 @@ class _ClosedLoop:
         self.record(ti, switched)
 
     def _correct_translation(self, ti: float, m: RegisteredPose) -> None:
-        """Gate (ν = 3) and correct the translational filter; reset its covariance to ``P_0`` after too many rejections."""
+        """Gate (ν = 3) and correct the translational filter; after too many rejections restart it from the measured positions
+        (:meth:`_restart_translation`) or, when they do not agree, reset its covariance to ``P_0``."""
         inn = self.trans.innovation(m.r_L, self.R_s)
         g = mahalanobis_gate(inn, t=ti, source="translation")  # eq. 18, ν = 3
         self.gates.append(g)
@@ -409,9 +434,33 @@ class _ClosedLoop:
         if g.accepted:
             self.trans.correct(inn)
         elif self.rejected_s >= MAX_CONSECUTIVE_REJECTIONS:
-            Ds = UNITS.state_scale()
-            self.trans.core.reset_covariance(self.P0_s / np.outer(Ds, Ds))  # internal (scaled) units
+            if not self._restart_translation():
+                Ds = UNITS.state_scale()
+                self.trans.core.reset_covariance(self.P0_s / np.outer(Ds, Ds))  # internal (scaled) units
             self.rejected_s = 0
+
+    def _restart_translation(self) -> bool:
+        """Restart the translational filter from the last two measured positions, if the last three are consecutive and agree.
+
+        ``r = r₂`` with covariance ``R_s``, ``v = (r₂ − r₁)/Δt`` with ``2 R_s/Δt²`` (cross term ``R_s/Δt``). The three agree when the
+        two velocities they give differ by less than 3σ per axis (``√6 σ_r/Δt`` for equal intervals; a misaligned registration,
+        4–10 m off, moves them by metres per second). Eq. 9's relative acceleration over one 3 s interval (``2 n v + 3 n² r``,
+        ~1e-3 m/s² at 40 m) is below 1 % of the velocity's 1-σ and is left out. Returns whether the filter was restarted.
+        """
+        if len(self.last_pos_meas) < 3:
+            return False
+        (t0, r0), (t1, r1), (t2, r2) = self.last_pos_meas
+        d1, d2 = t1 - t0, t2 - t1
+        if max(d1, d2) > 1.5 / self.cfg.rate_hz:
+            return False
+        sd_r = float(np.sqrt(np.max(np.diag(self.R_s))))
+        v1, v2 = (r1 - r0) / d1, (r2 - r1) / d2
+        if np.any(np.abs(v2 - v1) > 3.0 * sd_r * np.sqrt(1.0 / d1**2 + (1.0 / d1 + 1.0 / d2) ** 2 + 1.0 / d2**2)):
+            return False
+        P = np.block([[self.R_s, self.R_s / d2], [self.R_s / d2, 2.0 * self.R_s / d2**2]])
+        self.trans = TranslationalUKF(np.concatenate([r2, v2]), P, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS)
+        self.translation_restarts += 1
+        return True
 
     def _attitude_step(self, i: int, ti: float, m: RegisteredPose, scale_ok: bool) -> bool:
         """Nominal mode: symmetry tests, attitude correction (or the spin proxy), the switch to the axisymmetric filter; True on a shadow switch."""
@@ -421,6 +470,8 @@ class _ClosedLoop:
             att_ok, switched = self._correct_attitude(ti, m)
             self.att_rejections.append(not att_ok)
             self.last_att_meas = [*self.last_att_meas[-2:], (ti, m.q_IT)]
+        if scale_ok and self.arc is not None:
+            self._acquire(ti, m.q_IT)
         if not att_ok and self.cfg.prior == "proxy":
             self._proxy_update()
         if self._lost():
@@ -503,6 +554,25 @@ class _ClosedLoop:
         self.att_rejections = []
         self.reacquisitions += 1
 
+    def _acquire(self, ti: float, q_IT_meas: np.ndarray) -> None:
+        """Add a measured attitude to the acquisition window; once it is full, restart the attitude filter from the window's batch
+        acquisition of the initial state (eq. 48's prior) if a rigid body fits it, else slide the window."""
+        self.arc.append((ti, q_IT_meas))
+        if len(self.arc) < ACQUISITION_MEASUREMENTS:
+            return
+        t, q = (np.array(v) for v in zip(*self.arc))
+        a = acquire_attitude(t, q, 4.0 * float(np.sqrt(self.R_a[0, 0])), self.x0_a, self.P0_a, 0.0)
+        self.acquisition_attempts += 1
+        if a is not None and a.fits():
+            self.att = AttitudeUKF(a.x, a.P, Q=attitude_process_noise, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+            self.att.predict(ti - a.t_s)  # the initial state's posterior, carried to now by the filter's own unscented prediction
+            self.att_rejections, self.rejected_a = [], 0
+            self.arc, self.acquisition_time_s = None, ti
+        elif self.acquisition_attempts >= ACQUISITION_ATTEMPTS:
+            self.arc = None
+        else:
+            self.arc = self.arc[1:]
+
     def _proxy_update(self) -> None:
         """The spin prior's rate in place of a rejected attitude measurement.
 
@@ -542,7 +612,9 @@ class _ClosedLoop:
         """The finished run."""
         return CombinaRun(config=self.cfg, truth=self.truth, measurements=self.meas, steps=self.steps, gates=self.gates, symmetry=self.checks,
                           switch_time_s=self.switch_time, C_GammaI=self.C_GammaI, iteration_s=self.iteration_s, registration_s=self.registration_s,
-                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
+                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s,
+                          translation_restarts=self.translation_restarts,
+                          prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
                           roll_ratios=np.array(self.roll_ratios).reshape(-1, 2))
 
 

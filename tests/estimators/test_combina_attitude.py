@@ -116,13 +116,13 @@ def test_no_non_physical_sigma_point_is_propagated(monkeypatch):
     """k near the flat-plate boundary with 1-σ 0.3: about half the sigma points of a prediction and of the
     iterated correction lie outside the rigid-body set; with ``physical`` none of them reaches eq. 29."""
     seen = []
-    rhs = ca.attitude_rhs_quat
+    propagate = ca.propagate_rigid_body
 
-    def spy(x):
-        seen.append(x[..., 7:9].reshape(-1, 2).copy())
-        return rhs(x)
+    def spy(Y, dt_s, **steps):
+        seen.append(Y[:, 7:9].copy())
+        return propagate(Y, dt_s, **steps)
 
-    monkeypatch.setattr(ca, "attitude_rhs_quat", spy)
+    monkeypatch.setattr(ca, "propagate_rigid_body", spy)
     k0 = project_k_physical(np.array([1.2, 0.4]))  # A = B + C
     P0 = np.diag([1e-4] * 3 + [1e-6] * 3 + [0.09] * 2)
     R = error_mrp_noise_covariance(np.deg2rad(2.0))
