@@ -1,4 +1,6 @@
-"""Studies: wall time of the truth-model check study, 1 vs 2 local Dask workers, and recording sizes.
+"""Studies: wall time of the truth-model check study and the §6 filter studies, 1 vs 2 local Dask workers, and recording sizes.
+
+The coverage study's wall time is in its own benchmark (``python -m benchmarks coverage``, the full study).
 
 Each configuration runs ``run_study`` from scratch into a fresh folder (the
 local cluster's start-up included, as a user would see it). The baseline of
@@ -8,13 +10,11 @@ the speed-up is the 1-worker run of the same size measured in the same run.
 from __future__ import annotations
 
 import os
-import re
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
-from studies.engine.config import default_config_path, read_toml
 from studies.engine.registry import run_study
 from studies.engine.sweep import dask_client
 
@@ -34,62 +34,6 @@ def _cluster_start(workers: int) -> float:
         client.wait_for_workers(workers)
         started = time.perf_counter() - t0
     return started
-
-
-#: Initial conditions per level in the measured fraction of the full coverage study (100 in the full study).
-COVERAGE_FRACTION_ICS = 2
-
-
-def _coverage_fraction_config(root: Path, n_ics: int) -> Path:
-    """The full coverage config with ``n_initial_conditions = n_ics`` (every level, full horizon)."""
-    text = default_config_path("coverage").read_text()
-    new, n = re.subn(r"(?m)^n_initial_conditions\s*=\s*\d+", f"n_initial_conditions = {n_ics}", text, count=1)
-    if n != 1:
-        raise RuntimeError("coverage.toml: no n_initial_conditions line")
-    path = root / "coverage-fraction.toml"
-    path.write_text(new)
-    return path
-
-
-def run_coverage(n_ics: int = COVERAGE_FRACTION_ICS) -> str:
-    """Full coverage study wall time with 1 and 2 local workers, from a measured fraction, extrapolated.
-
-    The fraction keeps every rate level and the full half-orbit horizon with
-    ``n_ics`` initial conditions per level instead of 100; the full study's wall
-    time is extrapolated as (fraction wall − cluster start) × 100 / n_ics + start.
-    """
-    full_ics = read_toml(default_config_path("coverage"))["n_initial_conditions"]
-    rows, per_level = [], None
-    with tempfile.TemporaryDirectory(prefix="lcnav-bench-coverage-") as tmp:
-        root = Path(tmp)
-        cfg = _coverage_fraction_config(root, n_ics)
-        base = None
-        for workers in (1, 2):
-            start = _cluster_start(workers)
-            t0 = time.perf_counter()
-            res = run_study("coverage", config_path=cfg, out=root / f"cov-{workers}w", workers=workers, progress=False)
-            wall = time.perf_counter() - t0
-            full = (wall - start) * full_ics / n_ics + start
-            base = base or full
-            rows.append((workers, len(res.runs), f"{wall:.0f}", f"{res.runs['elapsed_s'].sum() / wall:.2f}",
-                         f"{full / 60:.0f}", f"{base / full:.2f}×"))
-            per_level = res.runs.groupby("rate_level_rad_s")["elapsed_s"].median()
-    lines = [
-        "## Coverage study (`lcnav study coverage`, Maestrini et al. Fig. 20): full-size wall time from a measured fraction",
-        "",
-        f"Measured: every rate level at the full horizon (half an orbit, 0.33 Hz) with {n_ics} of the {full_ics} initial "
-        f"conditions per level ({n_ics / full_ics:.0%} of the runs); full-size wall time extrapolated linearly "
-        "(the cluster start counted once). Goal: under 30 minutes on 2 cores.",
-        "",
-        "| local workers | runs measured | wall time (s) | Σ run / wall | full study, extrapolated (min) | speed-up vs 1 worker |",
-        "|---|---|---|---|---|---|",
-    ]
-    lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    lines += ["", "Median run time per rate level (s, 2 workers): "
-              + ", ".join(f"{w:g} rad/s {v:.1f}" for w, v in per_level.items())
-              + ". The truth (DOP853 at 1e-12 of the target's attitude) grows with the tumbling rate and dominates the fast levels.",
-              f"1-min load average at the end: {os.getloadavg()[0]:.1f} (2 cores shared with other work)."]
-    return "\n".join(lines)
 
 
 #: The filter studies of Renis et al. §6 (their --quick sizes are set in studies/catalog/configs/<name>.toml).
@@ -158,4 +102,4 @@ def run() -> str:
               f"{os.getloadavg()[0]:.1f} after). Σ run / wall is the parallelism achieved (run times summed over wall time).", *notes]
     with tempfile.TemporaryDirectory(prefix="lcnav-bench-filter-studies-") as tmp:
         lines += ["", filter_studies_section(Path(tmp))]
-    return "\n".join(lines) + "\n\n" + run_coverage()
+    return "\n".join(lines)

@@ -97,10 +97,8 @@ MAX_ITERATIONS = 30
 COST_TOL = 1e-3
 #: Chi-square quantile above which a fit's minimum is not the data's trajectory.
 FIT_QUANTILE = 0.999
-#: Smallest eigenvalue of a usable covariance relative to its largest: below it a filter cannot factor it (the UKF's
-#: Cholesky failed on SC2 at 1e-17). On SC2's intermediate-axis spin the data pin the unstable mode's initial amplitude
-#: to ``e^{−λt}`` (λ up to 0.16 /s), which a long fit resolves beyond double precision; SC1 and SC3 stay near 1e-11 at 300 s.
-MIN_EIGEN_RATIO = 1e-14
+#: Floor of the covariance's eigenvalues relative to its largest (:func:`_factorable`).
+EIGEN_FLOOR = 1e-14
 #: A fitted initial state this many prior standard deviations from the prior mean in one component contradicts the prior
 #: there; that component's prior variance is then multiplied by :data:`FLAT_PRIOR_SCALE` (nearly flat) and the fit redone.
 PRIOR_Z = 5.0
@@ -151,8 +149,8 @@ class BatchPosterior:
     Levenberg–Marquardt steps; ``nodes``: quadrature nodes along the weak
     inertia direction (0: Laplace). ``usable``: ``cost`` below the
     :data:`FIT_QUANTILE` of ``χ²(dof)`` (else a local minimum or an
-    unmodelled error), no consider term beyond an estimated state's prior
-    variance, and ``P`` factorable (:data:`MIN_EIGEN_RATIO`).
+    unmodelled error) and no consider term beyond an estimated state's prior
+    variance.
     """
 
     x: np.ndarray
@@ -353,11 +351,27 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
         if moments is not None:
             (x, P, weak), nodes = moments, len(NODES)
     fits = bool(lin.cost <= chi2.ppf(FIT_QUANTILE, max(problem.dof, 1)))
-    P = 0.5 * (P + P.T)
-    eig = np.linalg.eigvalsh(P)
-    conditioned = bool(eig[0] > MIN_EIGEN_RATIO * eig[-1])
-    return BatchPosterior(x=x, P=P, x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate and conditioned,
+    return BatchPosterior(x=x, P=_factorable(P), x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate,
                           iterations=steps, nodes=nodes, prior_flattened=tuple(int(i) for i in flat), weak_direction=weak)
+
+
+def _factorable(P: np.ndarray) -> np.ndarray:
+    """``P`` symmetric, its eigenvalues raised to at least :data:`EIGEN_FLOOR` times the largest.
+
+    SC1 and SC2 spin about the intermediate axis: given ``k``, a long fit pins
+    the unstable mode's initial amplitude to ``e^{−λt}`` (``λ`` 0.01–0.16 /s),
+    and from 170 s on SC1 (100 s on SC2) the computed ``P`` has eigenvalues of
+    1e-15…1e-19 of its largest, some negative: below what double precision
+    resolves in a 14×14 product (``n ε ≈ 3e-15``), and the UKF's Cholesky
+    factor of its sigma points failed on them. Raised to the floor, ``P``
+    changes by less than its own rounding error.
+    """
+    P = 0.5 * (P + P.T)
+    lam, V = np.linalg.eigh(P)
+    floor = EIGEN_FLOOR * lam[-1]
+    if lam[0] >= floor:
+        return P
+    return (V * np.maximum(lam, floor)) @ V.T
 
 
 def _end_covariance(problem: _Problem, x0: np.ndarray, con: np.ndarray) -> np.ndarray:

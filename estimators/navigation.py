@@ -125,20 +125,9 @@ def run_navigation(
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
     relin = _Relinearization(model, servicer, tau, tuning, filt, consider) if tuning.relinearize_s > 0 else None
-    k_axes = np.arange(N_ERROR)[DK]
-    settle_consider = np.union1d(consider, k_axes).astype(int)
-    no_directions = np.zeros((0, N_ERROR))
     for k in range(1, n):
-        if tuning.settling_s > 0:  # the tuning's settling phase (estimators.tuning)
-            # with re-linearisation, the settling phase lasts until a full-information fit has passed its test, and
-            # comes back while the latest one fails it
-            settling = t[k - 1] - t[0] < tuning.settling_s or (relin is not None and not relin.trusted)
-            _set_settling(filt, tuning, tau, settling, settle_consider if settling else consider)
-            releasing = not settling and t[k - 1] - t[0] < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
-            if releasing:
-                filt.consider_directions = weak_inertia_direction(model, filt.x, servicer[k - 1], tau)
-            else:
-                filt.consider_directions = relin.weak_direction if relin is not None and relin.trusted else no_directions
+        if tuning.settling_s > 0:  # the tuning's settling and release phases (estimators.tuning)
+            _set_phase(filt, tuning, tau, t[k - 1] - t[0], consider, relin, model, servicer[k - 1])
         filt.predict(servicer[k - 1], tau)
         x_prior = filt.x
         parts = []
@@ -246,6 +235,24 @@ def _measurements_on_grid(t: np.ndarray, tau: float, t_meas, q_meas, r_meas) -> 
     if np.any(k_meas < 1) or np.any(k_meas >= len(t)) or np.any(np.abs(t[np.clip(k_meas, 0, len(t) - 1)] - t_meas) > 1e-6):
         raise ValueError("every measurement time must be a grid time after t[0]")
     return q_meas, r_meas, {int(k): i for i, k in enumerate(k_meas)}
+
+
+def _set_phase(filt, tuning: Tuning, tau: float, t_s: float, consider, relin, model, servicer_state) -> None:
+    """The filter's set-up for the step from ``t_s`` (s since ``t[0]``): settling, release or neither (:mod:`estimators.tuning`).
+
+    With re-linearisation the settling phase lasts until a full-information fit
+    has passed its tests, and comes back while the latest one fails them; while
+    a fit's posterior is not Gaussian along the weak inertia direction, the
+    filter considers that direction until the next fit.
+    """
+    k_axes = np.arange(N_ERROR)[DK]
+    settling = t_s < tuning.settling_s or (relin is not None and not relin.trusted)
+    _set_settling(filt, tuning, tau, settling, np.union1d(consider, k_axes).astype(int) if settling else consider)
+    releasing = not settling and t_s < tuning.settling_s + tuning.release_s and not np.isin(k_axes, consider).any()
+    if releasing:
+        filt.consider_directions = weak_inertia_direction(model, filt.x, servicer_state, tau)
+    else:
+        filt.consider_directions = relin.weak_direction if relin is not None and relin.trusted else np.zeros((0, N_ERROR))
 
 
 def _set_settling(filt, tuning: Tuning, tau: float, settling: bool, consider) -> None:
