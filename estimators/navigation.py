@@ -163,8 +163,8 @@ class _Relinearization:
     """The tuning's periodic re-linearisation: the filter's ``x, P`` replaced by the full-information posterior.
 
     Every ``tuning.relinearize_s`` from the end of the settling phase on, the
-    measurements the filter accepted so far (gated camera sources, the prior
-    proxy) are fitted together with its initial ``x̂_0, P_0``
+    measurements so far (camera sources with the gate's verdicts, the prior
+    proxy) are fitted together with the filter's initial ``x̂_0, P_0``
     (:func:`estimators.batch.posterior`); the first fit starts from the
     filter's estimate run back to ``t[0]``, each later one from the latest
     fit that passed. A fit that fails its tests (:attr:`estimators.batch.BatchPosterior.usable`)
@@ -187,8 +187,7 @@ class _Relinearization:
         """Record step ``k``'s accepted measurements; fit and reset the filter when a re-linearisation is due."""
         rejected = {d.source for d in decisions if not d.accepted}
         for src, z in parts:
-            if src.name not in rejected:
-                self.history.add(k, src, z)
+            self.history.add(k, src, z, accepted=src.name not in rejected)
         due = t_s + 1e-9 >= self.first_s and abs((t_s - self.first_s) / self.every_s - round((t_s - self.first_s) / self.every_s)) < 1e-6
         if not due or not len(self.history):
             return

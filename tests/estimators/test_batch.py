@@ -33,7 +33,7 @@ def test_on_a_linear_model_the_fit_is_the_kalman_filter(rng):
     h, _ = _linear_history(rng, [0.0, 0.1, -0.1], 40)
     post = posterior(CV, [None] * 40, h, x_hat0, P0_CV, 40, 1.0)
     x, P = x_hat0.copy(), P0_CV.copy()
-    Z = {k: z for _, ks, Zs in h.groups(0, 40) for k, z in zip(ks, Zs)}
+    Z = {k: z for _, ks, Zs, _ in h.groups(0, 40) for k, z in zip(ks, Zs)}
     for k in range(1, 41):
         F = CV._F(1.0)
         x, P = F @ x, F @ P @ F.T
