@@ -171,6 +171,12 @@ def _rk4_error_state(x0, s0, J_S, mu, dt, n_steps):
     (the last two steps cost ~30 µs as numpy calls).
     """
     x1, _, Phi = _rk4_stm(x0, s0, J_S, mu, dt, n_steps)
+    return _error_state_step(x0, x1, Phi)
+
+
+@numba.njit(cache=True)
+def _error_state_step(x0, x1, Phi):
+    """``(x1, F)``: the quaternion of ``x1`` normalised (eq. 28) and the 15-state ``Φ`` mapped to ``F = G_out Φ G_in`` (eq. 25)."""
     q = x1[Q_TS]
     x1[Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     G_in, G_out = state_to_error_jacobians(x0, x1)
@@ -193,14 +199,14 @@ def _step_coarse_stm(x0, s0, J_S, mu, dt, n_steps):
     z[JOINT_S] = s0
     Phi = np.eye(N_STATE)
     A0 = _jac(z, J_S, mu)
-    for _ in range(n_steps // 2):
-        for _ in range(2):
+    for _pair in range(n_steps // 2):
+        for sub in range(2):
             k1 = joint_rhs(z, J_S, mu)
             k2 = joint_rhs(z + 0.5 * dt * k1, J_S, mu)
             k3 = joint_rhs(z + 0.5 * dt * k2, J_S, mu)
             k4 = joint_rhs(z + dt * k3, J_S, mu)
             z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-            if _ == 0:
+            if sub == 0:
                 Am = _jac(z, J_S, mu)
         A1 = _jac(z, J_S, mu)
         h = 2.0 * dt
@@ -210,11 +216,7 @@ def _step_coarse_stm(x0, s0, J_S, mu, dt, n_steps):
         K4 = A1 @ (Phi + h * K3)
         Phi = Phi + h / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)
         A0 = A1
-    x1 = z[JOINT_X].copy()
-    q = x1[Q_TS]
-    x1[Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    G_in, G_out = state_to_error_jacobians(x0, x1)
-    return x1, G_out @ Phi @ G_in
+    return _error_state_step(x0, z[JOINT_X].copy(), Phi)
 
 
 @numba.njit(cache=True)
