@@ -35,7 +35,11 @@ from estimators.gates import GateDecision, chi_square_gate
 from estimators.state import N_STATE, Q_TS
 
 
-class NonFiniteError(ValueError):
+class DivergenceError(ValueError):
+    """The filter's numbers broke down (a covariance not positive definite, a step not finite): the run has diverged."""
+
+
+class NonFiniteError(DivergenceError):
     """A filter step would put NaN or Inf into the state or covariance (refused)."""
 
 
@@ -178,7 +182,10 @@ class KalmanFilterBase:
             self.innovations[src.name] = (y[sl].copy(), S[sl, sl].copy())
             accepted = True
             if gate and src.gated and self.gate_confidence is not None:
-                d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence)
+                try:
+                    d = chi_square_gate(y[sl], S[sl, sl], t=t, source=src.name, confidence=self.gate_confidence)
+                except ValueError as e:  # y and S are the filter's own: a breakdown, not bad input
+                    raise DivergenceError(f"{self.kind}: {e} at t={t}") from e
                 decisions.append(d)
                 accepted = d.accepted
             keep[sl] = accepted

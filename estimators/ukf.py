@@ -50,7 +50,7 @@ from __future__ import annotations
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, unscented_transform
 
-from estimators.filter import KalmanFilterBase, NonFiniteError, _block_diag
+from estimators.filter import DivergenceError, KalmanFilterBase, NonFiniteError, _block_diag
 
 
 class UnscentedKalmanFilter(KalmanFilterBase):
@@ -72,7 +72,7 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         try:
             dX = self.points.sigma_points(np.zeros(self.P.shape[0]), self.P)
         except np.linalg.LinAlgError as e:
-            raise ValueError("ukf: covariance P is not positive definite") from e
+            raise DivergenceError("ukf: covariance P is not positive definite") from e
         return self.model.boxplus(self.x[None, :], dX)
 
     def _predict(self, u, dt: float):

@@ -31,6 +31,7 @@ import pandas as pd
 
 from estimators.dynamics import k_from_inertia
 from estimators.error_state import boxplus
+from estimators.filter import DivergenceError
 from estimators.measurement import PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, initialize_with_prior
@@ -206,7 +207,11 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     position against a 1 m ``P_0``). One-axis tumbles consider ``k`` and test
     12 states. Steps from ``settling_s`` on count (:data:`studies.sim.metrics.SETTLING_S`).
 
-    Returns a flat dict: ``nees_in_band`` (fraction of steps whose ``n_runs``-mean
+    A run whose filter breaks down (:class:`estimators.filter.DivergenceError`) is
+    counted in ``diverged`` and left out of the statistics, which are over the
+    other ``runs``.
+
+    Returns a flat dict: ``nees_in_band`` (fraction of steps whose ``runs``-mean
     NEES lies in its two-sided ``confidence`` band), ``nees_below``/``nees_above``,
     ``nees_in_band_from_start`` (the same over every step after ``t[0]``, settling included),
     ``nees_per_dof`` with its t interval over runs (``_lo``/``_hi``),
@@ -226,25 +231,32 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     if not sel.any():
         raise ValueError(f"settling_s ({settling_s} s) must be shorter than the run ({tr.t[-1] - tr.t[0]} s)")
     E, E_all, nis = [], [], {s: [] for s in SOURCES}
+    diverged = 0
     for i in range(n_runs):
         rng = np.random.default_rng(first_seed + i)
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
                                        sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
         x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(N_ERROR), tuning.P_0))
-        run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
-                             pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
-                             consider=K_STATES if oa else ())
+        try:
+            run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
+                                 pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
+                                 consider=K_STATES if oa else ())
+        except DivergenceError:
+            diverged += 1
+            continue
         E_all.append(nees(run.x, run.P, tr.x, states)[1:])
         E.append(E_all[-1][sel[1:]])
         for s in SOURCES:
             nis[s].append(run.nis[s][sel])
+    if not E:
+        raise DivergenceError(f"{filter_name} with {tuning.name!r} diverged in all {n_runs} runs on {tr.scenario.name}")
     E = np.array(E)
-    lo, hi = chi_square_band(dof, n_runs, confidence)
+    lo, hi = chi_square_band(dof, len(E), confidence)
     avg = E.mean(axis=0)
     avg_all = np.mean(E_all, axis=0)
     per_run = E.mean(axis=1) / dof
     iv = t_interval(per_run, confidence)
-    out = {"filter": filter_name, "scenario": tr.scenario.name, "tuning": tuning.name, "runs": n_runs, "dof": dof,
+    out = {"filter": filter_name, "scenario": tr.scenario.name, "tuning": tuning.name, "runs": len(E), "diverged": diverged, "dof": dof,
            "settling_s": settling_s, "duration_s": float(tr.t[-1] - tr.t[0]),
            "nees_in_band": float(np.mean((avg >= lo) & (avg <= hi))), "nees_below": float(np.mean(avg < lo)),
            "nees_above": float(np.mean(avg > hi)), "nees_in_band_from_start": float(np.mean((avg_all >= lo) & (avg_all <= hi))),

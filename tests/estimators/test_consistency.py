@@ -163,6 +163,7 @@ def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name)
     (estimators.batch)."""
     r = default_p0_runs(scenario, name, DEFAULT_TUNING)
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
+    assert r["diverged"] == 0
     assert r["nees_in_band"] >= 0.9
     for s in ("attitude", "position"):
         assert r[f"nis_{s}_in_band"] >= 0.9
@@ -176,6 +177,7 @@ def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
     consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
     from scipy.stats import chi2
 
+    assert r["diverged"] == 0
     n = r["runs"] * r["dof"]
     assert lowest_nees_per_dof <= r["nees_per_dof"] <= chi2.ppf(0.975, n) / n
     n_nis = 3 * r["runs"] * int(r["duration_s"] - r["settling_s"])  # one measurement per second
