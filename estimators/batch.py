@@ -219,10 +219,10 @@ class _Problem:
         self.x0_prior = np.asarray(x0_prior, dtype=float)
         self.P0 = np.asarray(P0, dtype=float)
         self.prior_root = np.linalg.cholesky(np.linalg.inv(self.P0))  # P_0⁻¹ = L Lᵀ: prior rows Lᵀ δ
-        self.every = []  # every measurement, whitened: (source, ks, Z, L)
-        for src, ks, Z, _ in history.groups(int(k_start), int(k_end)):
-            self.every.append((src, ks, Z, np.linalg.cholesky(np.linalg.inv(src.R))))  # R⁻¹ = L Lᵀ: residual rows Lᵀ y
-        self.keep = [acc for *_, acc in history.groups(int(k_start), int(k_end))] if keep is None else keep
+        rows = list(history.groups(int(k_start), int(k_end)))
+        # every measurement, whitened: (source, ks, Z, L) with R⁻¹ = L Lᵀ (residual rows Lᵀ y)
+        self.every = [(src, ks, Z, np.linalg.cholesky(np.linalg.inv(src.R))) for src, ks, Z, _ in rows]
+        self.keep = [acc for *_, acc in rows] if keep is None else keep
         self.groups = [(src, ks[m], Z[m], L) for (src, ks, Z, L), m in zip(self.every, self.keep) if m.any()]
         self.dof = int(sum(len(ks) * src.R.shape[0] for src, ks, _, _ in self.groups))
 
@@ -376,13 +376,15 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
         x0, lin, more = problem.minimise(x0, np.eye(n)[:, est])
         steps += more
     G0 = _initial_root(lin, problem.P0, est, con)
-    x, P, nodes, weak = lin.x_end, _end_covariance(problem, x0, con), 0, None
     # a consider term beyond the estimated states' prior: the held states, not the data, decide the fit (SC2, module docstring)
     held_dominate = bool(con.size) and bool(np.any(np.sum(G0[est] ** 2, axis=1) > np.diag(problem.P0)[est]))
+    moments = None
     if k_states is not None and not con.size:
         moments = _weak_quadrature(problem, x0, lin, G0, np.asarray(k_states, dtype=int))
-        if moments is not None:
-            (x, P, weak), nodes = moments, len(NODES)
+    if moments is not None:
+        (x, P, weak), nodes = moments, len(NODES)
+    else:
+        x, P, weak, nodes = lin.x_end, _end_covariance(problem, x0, con), None, 0
     fits = bool(lin.cost <= chi2.ppf(FIT_QUANTILE, max(problem.dof, 1)))
     return BatchPosterior(x=x, P=_factorable(P), x0=x0, cost=lin.cost, dof=problem.dof, usable=fits and not held_dominate,
                           iterations=steps, nodes=nodes, prior_flattened=tuple(int(i) for i in flat), weak_direction=weak)

@@ -173,6 +173,8 @@ class _Relinearization:
 
     def __init__(self, model, servicer, tau: float, tuning: Tuning, filt, consider):
         self.model, self.servicer, self.tau, self.consider = model, servicer, tau, consider
+        #: the inertia ratios' error indices for the fit's quadrature; none when they are considered (held)
+        self.k_states = None if np.isin(np.arange(N_ERROR)[DK], consider).any() else np.arange(N_ERROR)[DK]
         self.x0_prior, self.P0 = filt.x.copy(), filt.P.copy()
         self.first_s, self.every_s = (tuning.settling_s or tuning.relinearize_s), tuning.relinearize_s
         self.history = MeasurementHistory()
@@ -192,10 +194,9 @@ class _Relinearization:
         if not due or not len(self.history):
             return
         start = self.x0_fit if self.x0_fit is not None else self.model.rewind(filt.x, self.servicer[1 : k + 1], self.tau)
-        k_states = None if np.isin(np.arange(N_ERROR)[DK], self.consider).any() else np.arange(N_ERROR)[DK]
         try:
             post = posterior(self.model, self.servicer, self.history, self.x0_prior, self.P0, k, self.tau, x0_start=start,
-                             consider=self.consider, k_states=k_states)
+                             consider=self.consider, k_states=self.k_states)
         except BatchFitError:
             self.events.append((float(t_s), 0, False))
             self.trusted = False

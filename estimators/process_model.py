@@ -175,10 +175,17 @@ def _rk4_error_state(x0, s0, J_S, mu, dt, n_steps):
 
 
 @numba.njit(cache=True)
+def _normalize_q_ts(x):
+    """``x`` with its quaternion ``q_TS`` normalised in place (eq. 28)."""
+    q = x[Q_TS]
+    x[Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return x
+
+
+@numba.njit(cache=True)
 def _error_state_step(x0, x1, Phi):
     """``(x1, F)``: the quaternion of ``x1`` normalised (eq. 28) and the 15-state ``Φ`` mapped to ``F = G_out Φ G_in`` (eq. 25)."""
-    q = x1[Q_TS]
-    x1[Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    _normalize_q_ts(x1)
     G_in, G_out = state_to_error_jacobians(x0, x1)
     return x1, G_out @ Phi @ G_in
 
@@ -252,9 +259,7 @@ def _trajectory_states(x0, S, J_S, mu, dt, n_steps):
     X[0] = x0
     for k in range(N):
         xs, _ = _rk4_joint(X[k], S[k], J_S, mu, dt, n_steps, n_steps)
-        q = xs[-1][Q_TS]
-        X[k + 1] = xs[-1]
-        X[k + 1][Q_TS] = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        X[k + 1] = _normalize_q_ts(xs[-1])
     return X
 
 
