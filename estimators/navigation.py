@@ -180,9 +180,9 @@ class _Relinearization:
         self.history = MeasurementHistory()
         self.x0_fit = None  #: the initial state of the latest fit that passed, where the next one starts
         self.trusted = False  #: the latest fit passed its tests
-        #: (1, n_error) or (0, n_error): the weak inertia direction of the latest fit's quadrature, which the filter
-        #: considers until the next fit (its posterior along it is not Gaussian: the fit, not the filter, learns it)
-        self.weak_direction = np.zeros((0, N_ERROR))
+        #: (d, n_error), d = 0–2: the weak inertia directions of the latest fit's quadrature, which the filter
+        #: considers until the next fit (its posterior along them is not Gaussian: the fit, not the filter, learns them)
+        self.weak_directions = np.zeros((0, N_ERROR))
         self.events: list[tuple[float, int, bool]] = []
 
     def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
@@ -203,7 +203,7 @@ class _Relinearization:
             return
         self.events.append((float(t_s), post.nodes, post.usable))
         self.trusted = post.usable
-        self.weak_direction = np.zeros((0, N_ERROR)) if post.weak_direction is None else post.weak_direction[None, :]
+        self.weak_directions = np.zeros((0, N_ERROR)) if post.weak_directions is None else post.weak_directions
         if post.usable:
             filt.reset(post.x, post.P, f"re-linearisation at t={t_s}")
             self.x0_fit = post.x0
@@ -252,7 +252,7 @@ def _set_phase(filt, tuning: Tuning, tau: float, t_s: float, consider, relin, mo
     if releasing:
         filt.consider_directions = weak_inertia_direction(model, filt.x, servicer_state, tau)
     else:
-        filt.consider_directions = relin.weak_direction if relin is not None and relin.trusted else np.zeros((0, N_ERROR))
+        filt.consider_directions = relin.weak_directions if relin is not None and relin.trusted else np.zeros((0, N_ERROR))
 
 
 def _set_settling(filt, tuning: Tuning, tau: float, settling: bool, consider) -> None:

@@ -6,6 +6,9 @@
   the ``k`` values, which are what the filters estimate and the tables report),
   tumbling at the Table 1 rates, servicer 50 m behind it on the same circular
   LEO orbit.
+* SC1-NEAR-AXIS: SC1 spinning 1e-4 rad/s off its axis (not in the paper): a
+  real target never spins exactly about a principal axis, and there the
+  inertia ratios are estimated, not considered (issue 12).
 * COMBINA: the §VI scenario of Maestrini et al.: 800 km circular orbit with
   ``TU = 1/n = 963.65 s``, ``LU = 12 m``, the target at the eq. 46 offset from
   the chaser with the eq. 47 attitude, rate and inertia ratios.
@@ -61,6 +64,11 @@ SCENARIOS: dict[str, Scenario] = {
     "SC2": Scenario("SC2", "Renis et al. Table 1: 1 axis, fast (0.2 rad/s about z)", _K_SC, (0.0, 0.0, 0.200), _Q_IT0_SC, _LEO_500),
     "SC3": Scenario("SC3", "Renis et al. Table 1: 2 axes, slow (0.02, 0, 0.045) rad/s", _K_SC, (0.020, 0.0, 0.045), _Q_IT0_SC, _LEO_500),
     "SC4": Scenario("SC4", "Renis et al. Table 1: 2 axes, fast (0.1, 0, 0.15) rad/s", _K_SC, (0.100, 0.0, 0.150), _Q_IT0_SC, _LEO_500),
+    "SC1-NEAR-AXIS": Scenario(
+        "SC1-NEAR-AXIS",
+        "SC1 with 1e-4 rad/s on each of the two other body axes: data nobody tuned on (the spin axis is the "
+        "intermediate one, so the off-axis rate grows ~e^(0.014 t), x 70 over 300 s, as on a real target)",
+        _K_SC, (1e-4, 1e-4, 0.050), _Q_IT0_SC, _LEO_500),
     "COMBINA": Scenario(
         "COMBINA",
         "Maestrini et al. §VI: 800 km orbit (TU = 963.65 s, LU = 12 m), eq. 46 football orbit, eq. 47 attitude",

@@ -95,7 +95,8 @@ def test_trajectory_and_rewind(truth):
     assert np.abs(boxminus(back, tr.x[0])).max() < 1e-5
 
 
-def _sc3_fit(tr, seed: int, k_end: int, noise: PoseNoise = PoseNoise(), P0=P0_DEFAULT):
+def _fit(tr, seed: int, k_end: int, noise: PoseNoise = PoseNoise(), P0=P0_DEFAULT):
+    """The fit of ``tr``'s first ``k_end`` steps (``k`` estimated) from a draw of ``N(x_0, P_0)``, started at the truth."""
     rng = np.random.default_rng(seed)
     m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=noise.sigma_q_rad, sigma_r_m=noise.sigma_r_m, noise=noise.model)
     x_hat0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(N_ERROR), np.diag(P0)))
@@ -112,7 +113,7 @@ def test_the_fit_recovers_the_truth_from_nearly_exact_measurements(truth):
     """Pose noise of 1 µrad and 10 µm (the filter told so) and the default ``P_0``: the fitted state is the truth to
     the noise's size, and the fit passes its chi-square test (the model's RK4 error, 1e-7 m a step, is below the noise)."""
     tr = truth("SC3", 40.0)
-    post = _sc3_fit(tr, 7, 40, noise=PoseNoise(sigma_q_rad=1e-6, sigma_r_m=1e-5))
+    post = _fit(tr, 7, 40, noise=PoseNoise(sigma_q_rad=1e-6, sigma_r_m=1e-5))
     e = boxminus(tr.x[40], post.x)
     assert np.abs(e[:3]).max() < 1e-6 and np.abs(e[3:6]).max() < 1e-7 and np.abs(e[6:9]).max() < 1e-5 and np.abs(e[12:]).max() < 1e-3
     assert post.usable
@@ -126,14 +127,37 @@ def test_sc3_posterior_is_consistent_where_the_laplace_one_is_not(truth):
     nodes are needed, and the fit stays in band (0.95)."""
     tr = truth("SC3", 150.0)
     lo, hi = chi2.ppf(0.025, 30 * 14) / (30 * 14), chi2.ppf(0.975, 30 * 14) / (30 * 14)
-    for k_end, nodes in ((60, len(NODES)), (150, 0)):
-        nees = []
+    for k_end in (60, 150):
+        nees, nodes = [], []
         for seed in range(1000, 1030):
-            post = _sc3_fit(tr, seed, k_end)
+            post = _fit(tr, seed, k_end)
             e = boxminus(tr.x[k_end], post.x)
             nees.append(e @ np.linalg.solve(post.P, e) / 14)
-            assert post.nodes == nodes and post.usable
-        print(f"SC3 at {k_end} s: mean NEES/dof {np.mean(nees):.3f} (band {lo:.3f}-{hi:.3f})")
+            nodes.append(post.nodes)
+            assert post.usable
+        print(f"SC3 at {k_end} s: mean NEES/dof {np.mean(nees):.3f} (band {lo:.3f}-{hi:.3f}), nodes {sorted(set(nodes))}")
+        assert lo < np.mean(nees) < hi
+
+
+@pytest.mark.slow
+def test_near_axis_posterior_is_consistent_where_the_mode_is_not_gaussian(truth):
+    """SC1-NEAR-AXIS (1e-4 rad/s off SC1's intermediate spin axis, ``k`` estimated), 24 draws, fits at 60 and 80 s:
+    the posterior of ``k`` is curved along both of its directions (the off-axis rate grows like ``e^{λ(k) t}``), and the
+    mean NEES/dof of the fit lies inside the 95 % band of 24 × 14 dof. With the quadrature along the weak direction only,
+    chosen by the Laplace σ at the mode, single draws reached NEES/dof 58 (estimators.batch)."""
+    tr = truth("SC1-NEAR-AXIS", 80.0)
+    n = 24
+    lo, hi = chi2.ppf(0.025, n * 14) / (n * 14), chi2.ppf(0.975, n * 14) / (n * 14)
+    for k_end in (60, 80):
+        nees, nodes = [], []
+        for seed in range(1000, 1000 + n):
+            post = _fit(tr, seed, k_end)
+            e = boxminus(tr.x[k_end], post.x)
+            nees.append(e @ np.linalg.solve(post.P, e) / 14)
+            nodes.append(post.nodes)
+            assert post.usable
+        print(f"SC1-NEAR-AXIS at {k_end} s: mean NEES/dof {np.mean(nees):.3f} (band {lo:.3f}-{hi:.3f}), worst {max(nees):.3g}, "
+              f"2-D quadratures {sum(m > len(NODES) for m in nodes)}/{n}")
         assert lo < np.mean(nees) < hi
 
 
