@@ -31,7 +31,7 @@ def test_simulate_writes_truth_table_and_recording(tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--scenario", "SC9"], "known scenarios: SC1, SC2, SC3, SC4, COMBINA"),
+        (["--scenario", "SC9"], "known scenarios: SC1, SC2, SC3, SC4, SC1-NEAR-AXIS, COMBINA"),
         (["--duration", "-5"], "--duration -5.0: expected a finite number within (0, 1e+06] s"),
         (["--duration", "inf"], "--duration inf: expected a finite number"),
         (["--dt", "0"], "--dt 0.0: expected a finite number within (0, 3600] s"),
@@ -53,7 +53,7 @@ def test_bad_input_one_line_no_output(tmp_path, args, message):
 def test_list_names_every_scenario(capsys):
     assert main(["simulate", "--list"]) == 0
     text = capsys.readouterr().out
-    for name in ["SC1", "SC2", "SC3", "SC4", "COMBINA"]:
+    for name in ["SC1", "SC2", "SC3", "SC4", "SC1-NEAR-AXIS", "COMBINA"]:
         assert name in text
 
 
