@@ -238,11 +238,21 @@ class _Linearisation:
     x_end: np.ndarray
     Phi_end: np.ndarray | None
 
-    def step(self, E: np.ndarray, lam: float) -> np.ndarray:
-        """The Levenberg–Marquardt step ``E d`` of ``(EᵀAE + λ diag(EᵀAE)) d = Eᵀ Jᵀ y``."""
+    def step(self, E: np.ndarray, lam: float) -> np.ndarray | None:
+        """The Levenberg–Marquardt step ``E d`` of ``(EᵀAE + λ diag(EᵀAE)) d = Eᵀ Jᵀ y``; ``None`` if it is not finite.
+
+        A restart far out in ``k`` on a fast tumble (SC4) can have rows of ``J``
+        whose squares overflow ``EᵀAE``: that step is refused like one that
+        raises the cost (the caller increases ``λ``).
+        """
         JE = self.J @ E
-        AE = JE.T @ JE
-        return E @ np.linalg.solve(AE + lam * np.diag(np.diag(AE)), JE.T @ self.y)
+        with np.errstate(over="ignore", invalid="ignore"):
+            AE = JE.T @ JE
+            try:
+                d = E @ np.linalg.solve(AE + lam * np.diag(np.diag(AE)), JE.T @ self.y)
+            except np.linalg.LinAlgError:
+                return None
+        return d if np.all(np.isfinite(d)) else None
 
     def root(self, E: np.ndarray) -> tuple[np.ndarray, float]:
         """``(G, log|EᵀAE|)`` with ``G Gᵀ = (EᵀAE)⁻¹``, from the QR factor ``R`` of ``J E`` (``G = R⁻¹``)."""
@@ -303,8 +313,9 @@ class _Problem:
             raise BatchFitError("the trajectory from the fit's start is not finite")
         lam, steps = 1e-6, 0
         for _ in range(MAX_ITERATIONS):
-            x_new = self.model.boxplus(x0, lin.step(E, lam))
-            trial = self.linearise(x_new, jacobian=False)
+            d = lin.step(E, lam)
+            x_new = None if d is None else self.model.boxplus(x0, d)
+            trial = None if d is None else self.linearise(x_new, jacobian=False)
             if trial is not None and trial.cost <= lin.cost and lin.cost - trial.cost < COST_TOL:
                 # converged: keep the Jacobian of the last (tiny) step's start
                 return x_new, _Linearisation(lin.J, trial.y, trial.cost, trial.x_end, lin.Phi_end), steps + 1
