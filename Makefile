@@ -14,8 +14,9 @@ export MPLBACKEND := Agg
 demo: $(STAMP)
 	$(VENV)/bin/lcnav demo --out runs/demo
 
+# One pytest worker per core (pytest-xdist), each test file on one worker so that its module fixtures run once.
 test: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto --dist loadfile --durations=15
 
 # ruff: pyflakes, pycodestyle (lines up to 160) and McCabe complexity (at most 12), as pyproject.toml's [tool.ruff] says.
 lint: $(STAMP)
