@@ -54,3 +54,34 @@ def test_linear_model_matches_textbook_kalman_filter(cls, linearization_covarian
         np.testing.assert_allclose(f.P, kf.P, rtol=0, atol=1e-10)
         np.testing.assert_allclose(f.y, kf.y, rtol=0, atol=1e-10)
         np.testing.assert_allclose(f.S, kf.S, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("how", ["index", "direction"])
+def test_ukf_considering_states_is_the_schmidt_kalman_filter(how):
+    """Considered states (an index, or a direction mixing two states) enter the UKF's prediction linearly
+    (:meth:`~estimators.ukf.UnscentedKalmanFilter._predict_considering`); on a linear model it is then the
+    Schmidt–Kalman filter, which the EKF implements in closed form (``P⁻ = F P Fᵀ + Q``, gain zero along the
+    considered space): same state, covariance and innovations to 1e-10."""
+    rng = np.random.default_rng(8)
+    dt = 0.5
+    Q = np.diag([1e-3, 2e-3, 1e-2, 5e-3]) + 1e-4
+    P0 = np.array([[4.0, 0.3, 0.5, 0.1], [0.3, 2.0, 0.0, 0.2], [0.5, 0.0, 1.0, 0.1], [0.1, 0.2, 0.1, 0.5]])
+    x0 = np.array([1.0, -2.0, 0.3, 0.1])
+    s = LinearMeasurement(H=[[1.0, 0, 0, 0], [0, 1.0, 0, 0]], R=[[0.2, 0.0], [0.0, 0.3]], name="xy")
+    filters = [cls(LinearProcessModel(cv_transition), x0, P0, Q, gate_confidence=None) for cls in (ExtendedKalmanFilter, UnscentedKalmanFilter)]
+    for f in filters:
+        if how == "index":
+            f.consider = np.array([3])
+        else:
+            f.consider_directions = np.array([[0.0, 0.0, 0.6, 0.8]])
+    truth = x0.copy()
+    for _ in range(40):
+        truth = cv_transition(dt) @ truth
+        z = truth[:2] + rng.normal(0, 0.4, 2)
+        for f in filters:
+            f.predict(None, dt)
+            f.update([(s, z)])
+        ekf, ukf = filters
+        np.testing.assert_allclose(ukf.x, ekf.x, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(ukf.P, ekf.P, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(ukf.y, ekf.y, rtol=0, atol=1e-10)
