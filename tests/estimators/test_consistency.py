@@ -223,8 +223,8 @@ def test_ukf_rate_covariance_agrees_with_the_ekf_where_k_is_considered(truth):
     """SC1 from the default ``P_0``: ``k`` is considered with its prior's σ, and the spin about the intermediate axis
     grows like ``e^{λ(k) t}``. Sigma points √14 = 3.7 σ out along ``k`` over-stated the rate's error: on these 30
     draws, rate NEES/dof 0.63 (UKF) against 1.00 (EKF) over 60–120 s (now 1.00 and 1.00); at 300 s the UKF had 83 % of
-    the steps in band against the EKF's 100 % (``python -m benchmarks consistency``). The UKF now takes considered directions linearly, as the Schmidt–Kalman EKF does
-    (:meth:`estimators.ukf.UnscentedKalmanFilter._predict_considering`): the two agree within 10 %."""
+    the steps in band against the EKF's 100 % (``python -m benchmarks consistency``). The UKF now takes considered
+    directions linearly, as the Schmidt–Kalman EKF does (:meth:`estimators.ukf.UnscentedKalmanFilter._predict_considering`): the two agree within 10 %."""
     from estimators.state import DW_ST_T, N_ERROR
 
     tr = truth("SC1", DURATION_DEFAULT_S)
