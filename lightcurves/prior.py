@@ -44,8 +44,10 @@ aliased photometry):
    detrended data themselves — the null hypothesis is that they are noise;
    (c) the residual periodogram's running-median continuum. Red noise raises the periodogram near 0 (and, on nightly
    sampling, near 1/day) by up to ``(1 + ρ)/(1 − ρ)``; without this,
-   correlated noise gave confident periods in 66–100 % of trials. A period with fewer than
-   ``min_cycles`` cycles in the arc is refused (``significant=False``,
+   correlated noise gave confident periods in 66–100 % of trials. The maximum is also taken over the
+   periodogram with the trend fitted jointly (Baluev's base model of 3 parameters) at the fundamental and the
+   highest peak: on sparse seasonal sampling the quadratic, removed first, takes part of a sinusoid's power.
+   A period with fewer than ``min_cycles`` cycles in the arc is refused (``significant=False``,
    with a warning): its frequency is not determined by the data;
 6. **1-σ**: the frequency variance of the least-squares fit
    ``Var f̂ = uᵀ Σ u``, ``u = J (JᵀJ)⁻¹ e_f`` (sandwich estimator), with
@@ -826,8 +828,9 @@ class _Noise:
         return float(out) if np.ndim(out) == 0 else np.asarray(out)
 
 
-def _noise(s: _Series, fit: _Fit) -> _Noise:
-    """Step 5: the periodogram divided by the largest of three noise spectra (module docstring, step 5)."""
+def _noise(s: _Series, fit: _Fit, full: _Series) -> _Noise:
+    """Step 5: the periodogram divided by the largest of three noise spectra (module docstring, step 5); its maximum
+    also with the trend fitted jointly (:func:`_joint_peak` on ``full``, the series with every sample)."""
     a_red, tau = fit.correlation
     n = s.n_periodogram
     z_white = -0.5 * (n - 3) * np.log1p(-s.power)  # Exp(1) at one frequency for white noise
@@ -843,9 +846,34 @@ def _noise(s: _Series, fit: _Fit) -> _Noise:
     # the detrended data) bounds the noise spectrum too — the residuals of a model fitted to red noise have lost part
     # of their correlation. A real signal looks red as well, which costs a weak one its significance.
     a_null, tau_null = _correlation_fit(s.t, s.yd * s.w, s.lags)
-    z_null = z_white / np.maximum(spectrum, _red_spectrum(s.t, a_null, tau_null, s.freq))
+    null = np.maximum(spectrum, _red_spectrum(s.t, a_null, tau_null, s.freq))
+    z_null = z_white / null
     noise = _Noise(a_red, tau, spectrum, z_white / spectrum, 1.0)
-    return replace(noise, fap_max=noise.fap(s, float(np.max(z_null))))
+    return replace(noise, fap_max=noise.fap(s, max(float(np.max(z_null)), _joint_peak(full, fit.f, z_null, null))))
+
+
+def _joint_peak(s: _Series, f: float, z_null: np.ndarray, null: np.ndarray) -> float:
+    """The periodogram with the trend fitted jointly — ``z = −½ (N − 5) ln(χ²_{trend + sinusoid}(f)/χ²_{trend})``, Exp(1)
+    at one frequency for white noise (a base model of 3 parameters, Baluev 2008 §2) — over the noise spectrum
+    ``null``, at its largest on the grid points next to the fundamental ``f`` and to the highest peak of ``z_null``.
+    Every sample of ``s`` counts, as in the periodogram (none is left out for disagreeing with a fit).
+
+    On sparse seasonal sampling a quadratic over the seasons is far from orthogonal to a sinusoid: removed first,
+    it took 30 % of the variance of a 490-cycle sinusoid sampled 39 times, and the detrended periodogram's peak fell
+    from 0.73 to 0.39. The joint fit's χ² reduction is never below the detrended periodogram's at the same
+    frequency, and its maximum over a few grid frequencies is at most that over the band, which Baluev's
+    approximation bounds.
+    """
+    n = s.n
+    trend, *_ = np.linalg.lstsq(s.V * s.w[:, None], s.y * s.w, rcond=None)
+    chi2_0 = float(s.W @ (s.y - s.V @ trend) ** 2)
+    if n <= 5 or chi2_0 <= 0.0:
+        return 0.0
+    df = s.freq[1] - s.freq[0]
+    i0 = int(np.clip(np.rint((f - s.freq[0]) / df), 0, s.freq.size - 1))
+    idx = np.unique(np.clip((np.array([i0, int(np.argmax(z_null))])[:, None] + np.arange(-1, 2)[None, :]).ravel(), 0, s.freq.size - 1))
+    chi2_1 = np.maximum(s.chi2(s.freq[idx], 1)[:, 0], 1e-300 * chi2_0)
+    return float(np.max(-0.5 * (n - 5) * np.log(chi2_1 / chi2_0) / null[idx]))
 
 
 def _candidates(s: _Series, noise: _Noise, ipk: np.ndarray, f_rot: float, level: float) -> tuple[Candidate, ...]:
@@ -981,13 +1009,13 @@ def extract_spin_prior(
     """
     t, y, dy = check_samples(t, mag, mag_err)
     _check_options(false_alarm_level, maxima_per_rotation, max_harmonics, min_cycles)
-    s = _prepare(t, y, dy, nu_min, nu_max)
-    series = (t, s.yd, s.nu_max, clean_options)
-    trial, ipk, peaks = _trial_frequencies(s)
-    s, fit, delta_bic, s2, describe = _choose_fundamental(s, trial, int(max_harmonics))
+    full = _prepare(t, y, dy, nu_min, nu_max)
+    series = (t, full.yd, full.nu_max, clean_options)
+    trial, ipk, peaks = _trial_frequencies(full)
+    s, fit, delta_bic, s2, describe = _choose_fundamental(full, trial, int(max_harmonics))
     fit, n_max, f_strong, decision = _rotation(s, fit, maxima_per_rotation, int(max_harmonics), describe)
     f_rot = fit.f
-    noise = _noise(s, fit)
+    noise = _noise(s, fit, full)
     cycles = s.T * f_rot
     warnings: list[str] = []
     if noise.tau > 0.0:
