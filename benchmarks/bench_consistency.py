@@ -47,6 +47,15 @@ def _pct(r: dict, key: str) -> str:
     return f"{100 * r[key]:.1f} [{100 * r[key + '_lo']:.1f}, {100 * r[key + '_hi']:.1f}]"
 
 
+def _table_row(r: dict) -> str:
+    return (f"| {r['scenario']} | {r['tuning']} | {r['filter'].upper()} | {r['dof']} | {r['diverged']} | {100 * r['nees_in_band']:.0f} "
+            f"(below {100 * r['nees_below']:.0f}, above {100 * r['nees_above']:.0f}) | {100 * r['nees_in_band_from_start']:.0f} | "
+            f"{_ci(r, 'nees_per_dof')} | "
+            f"{r['nees_per_dof_worst_run']:.3g} | {100 * r['nis_attitude_in_band']:.0f} | {100 * r['nis_position_in_band']:.0f} | "
+            f"{_ci(r, 'nis_attitude_per_dof')} | {_ci(r, 'nis_position_per_dof')} | {_pct(r, 'gate_attitude_rejected')} | "
+            f"{_pct(r, 'gate_position_rejected')} | {_pct(r, 'nis_attitude_low')} | {_pct(r, 'nis_position_low')} |")
+
+
 def _row(case: tuple[str, str, str]) -> dict:
     sc, tuning, f = case
     tr = simulate_truth(get_scenario(sc), DURATION_S, 1.0)
@@ -87,14 +96,6 @@ def run() -> str:
         "| NIS att low (%) | NIS pos low (%) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
-        lines.append(
-            f"| {r['scenario']} | {r['tuning']} | {r['filter'].upper()} | {r['dof']} | {r['diverged']} | {100 * r['nees_in_band']:.0f} "
-            f"(below {100 * r['nees_below']:.0f}, above {100 * r['nees_above']:.0f}) | {100 * r['nees_in_band_from_start']:.0f} | "
-            f"{_ci(r, 'nees_per_dof')} | "
-            f"{r['nees_per_dof_worst_run']:.3g} | {100 * r['nis_attitude_in_band']:.0f} | {100 * r['nis_position_in_band']:.0f} | "
-            f"{_ci(r, 'nis_attitude_per_dof')} | {_ci(r, 'nis_position_per_dof')} | {_pct(r, 'gate_attitude_rejected')} | "
-            f"{_pct(r, 'gate_position_rejected')} | {_pct(r, 'nis_attitude_low')} | {_pct(r, 'nis_position_low')} |"
-        )
+    lines += [_table_row(r) for r in rows]
     lines += ["", f"Wall time {wall:.0f} s."]
     return "\n".join(lines)

@@ -259,8 +259,10 @@ def _set_settling(filt, tuning: Tuning, tau: float, settling: bool, consider) ->
     """In or out of the tuning's settling phase (:mod:`estimators.tuning`): its ``Q_d``, considered states, EKF linearisation."""
     filt.Q = tuning.Q_d(tau, settling=settling)
     filt.consider = consider
-    if isinstance(filt, ExtendedKalmanFilter):  # the UKF's sigma points already carry its nonlinearity
+    if isinstance(filt, ExtendedKalmanFilter):
         filt.linearization_covariance = settling
+    else:  # the UKF's sigma points carry the nonlinearity along the considered states too
+        filt.consider_linearly = not settling
 
 
 def weak_inertia_direction(model: RelativeProcessModel, x, servicer_state, tau: float) -> np.ndarray:

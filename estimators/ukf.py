@@ -75,9 +75,13 @@ class UnscentedKalmanFilter(KalmanFilterBase):
             raise DivergenceError("ukf: covariance P is not positive definite") from e
         return self.model.boxplus(self.x[None, :], dX)
 
+    #: take the considered directions linearly in the prediction (:meth:`_predict_considering`); the settling phase of
+    #: the tunings turns it off, as it turns on the EKF's linearisation-error covariance (estimators.navigation)
+    consider_linearly = True
+
     def _predict(self, u, dt: float):
         U = self.consider_basis()
-        if U.shape[0]:
+        if U.shape[0] and self.consider_linearly:
             return self._predict_considering(U, u, dt)
         X = self._propagate(self._sigmas(), u, dt)
         dX = self.model.boxminus(X, X[0])
