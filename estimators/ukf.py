@@ -105,6 +105,10 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         (issue 12): the full transform puts points ``√n = 3.7`` standard deviations out along a considered ``k``,
         where a tumble near the intermediate axis grows like ``e^{λ(k)t}``; it over-stated the rate's error
         (SC1, 30 runs × 300 s: rate NEES/dof 0.46–0.62 against the EKF's 0.74–0.89, 83 % of the steps in band).
+        Not in a tuning's settling phase (:attr:`consider_linearly` off): with rate errors of the size of the spin the
+        sigma points' spread along ``k`` is the margin the EKF gets from its linearisation-error covariance; taken
+        linearly there, SC3 ``settled`` was over-confident (mean NEES/dof 1.21 at 120 s, worst run 26 at 300 s;
+        ``test_settled_tuning_from_the_default_p0``).
         """
         n, d = self.P.shape[0], U.shape[0]
         B = np.linalg.svd(U)[2][d:]
