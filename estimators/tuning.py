@@ -56,10 +56,12 @@ reset to the posterior of every measurement so far
 consistency`` (30 runs, 300 s, seeds 1000–1029, after 60 s) and on the
 independent seeds 2000–2029: NEES in its 95 % band on 95–100 % of the steps
 for the EKF on SC1 and SC3 and for the UKF on SC3, mean NEES/dof 0.96–1.05;
-the UKF on SC1 is conservative (0.89–0.91, 70–83 % in band: its sigma points
-carry a ``k``–``ω`` product term that SC1's exact principal-axis spin does
-not have). NIS in band 97 %, gate rejections 1.0 %. SC3: 100 % in band
-(1.04) for both filters. On a spin *near* the intermediate axis
+the UKF on SC1 was conservative (0.89–0.91, 70–83 % in band: its sigma points
+lay 3.7 σ out along the considered ``k``) until it took considered directions
+linearly (:mod:`estimators.ukf`): 100 % and 99 % in band, 0.966 and 0.955
+(seeds 1000–1029, 2000–2029).
+NIS in band 97 %, gate rejections 1.0 %. SC3: 100 % in band (1.04) for both
+filters. On a spin *near* the intermediate axis
 (``SC1-NEAR-AXIS``: 1e-4 rad/s off it, ``k`` estimated; data nobody tuned on):
 77–78 % in band, mean NEES/dof 1.05–1.06, worst run 1.7 (was 5 %, 7e12 before
 the fit's profile test, 2-D quadrature and restarts, :mod:`estimators.batch`);
