@@ -161,8 +161,13 @@ def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name
 
 @pytest.mark.slow
 def test_without_reacquisition_the_gate_locks_the_ukf_out(truth):
-    """The paper's rule alone (§4.3 of Renis et al.): after the blackout every good position is rejected."""
-    _, e, run = _blackout(truth, "ukf", "on_reject", 1, reacquire_window=None)
-    after = run.t >= 180.0
-    assert not run.accepted["position"][after].any()
-    assert e["r"][-1] > 10.0
+    """The paper's rule alone (§4.3 of Renis et al.) does not guarantee recovery: after the blackout the gate can
+    reject every good position for good. Seeds 1–3: seed 2 stays locked out (18.9 m off at the end); seeds 1 and 3
+    are readmitted 20–47 s after it (since the UKF takes the considered ``k`` linearly, estimators.ukf; before, seed 1
+    was locked out too)."""
+    locked = []
+    for seed in (1, 2, 3):
+        _, e, run = _blackout(truth, "ukf", "on_reject", seed, reacquire_window=None)
+        after = run.t >= 180.0
+        locked.append(not run.accepted["position"][after].any() and e["r"][-1] > 10.0)
+    assert any(locked)
