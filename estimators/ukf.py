@@ -66,6 +66,7 @@ class UnscentedKalmanFilter(KalmanFilterBase):
     def __init__(self, model, x0, P0, Q, *, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0, **kw):
         super().__init__(model, x0, P0, Q, **kw)
         self.points = MerweScaledSigmaPoints(int(model.n_error), alpha=alpha, beta=beta, kappa=kappa)
+        self._reduced_points: dict[int, MerweScaledSigmaPoints] = {}  # for _predict_considering, by dimension
 
     def _sigmas(self) -> np.ndarray:
         """``χ_i = x̂ ⊞ σ_i`` (2n+1, n_state)."""
@@ -116,7 +117,9 @@ class UnscentedKalmanFilter(KalmanFilterBase):
         w, V = np.linalg.eigh(P_cc)
         L_c = V * np.sqrt(np.clip(w, 0.0, None))  # L_c L_cᵀ = P_cc, also when a direction has no variance
         G = np.linalg.lstsq(P_cc, P_ac.T, rcond=None)[0].T
-        points = MerweScaledSigmaPoints(n - d, alpha=self.points.alpha, beta=self.points.beta, kappa=self.points.kappa)
+        points = self._reduced_points.get(n - d)
+        if points is None:  # the weights depend only on the dimension: made once per number of considered directions
+            points = self._reduced_points[n - d] = MerweScaledSigmaPoints(n - d, alpha=self.points.alpha, beta=self.points.beta, kappa=self.points.kappa)
         try:
             A = points.sigma_points(np.zeros(n - d), P_aa - G @ P_ac.T)
         except np.linalg.LinAlgError as e:
