@@ -58,7 +58,7 @@ def _baseline(n: int) -> float:
 def run() -> str:
     tr = simulate_truth(get_scenario("SC1"), 300.0, 0.5)
     meas = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(1), tau_s=0.5)
-    tun = get_tuning("sc1")
+    tun = get_tuning("sc1-paper")
     for name in ("ekf", "ukf"):  # compile and warm up outside the timing
         _per_step(name, tr, meas, tun, 5, 0.99)
     n = 300

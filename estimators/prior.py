@@ -101,20 +101,20 @@ class BodyRatePrior:
         return cls(r * _unit(axis_T), np.full(3, s), source=source)
 
 
-def tuning_for_prior(prior: BodyRatePrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0, settled: bool = True) -> str:
+def tuning_for_prior(prior: BodyRatePrior, *, fast_rad_s: float = 0.1, single_axis_deg: float = 10.0, conservative: bool = True) -> str:
     """Scenario-specific tuning name (``sc1``–``sc4``) for the prior's spin (study 1 of Renis et al.).
 
     Fast if ``|ω| ≥ fast_rad_s`` (Table 1: slow 0.05, fast 0.2/0.18 rad/s);
     one-axis if ``ω`` is within ``single_axis_deg`` of a principal axis.
-    ``settled``: the variant with the settling phase (``sc3-settled``, the default: not over-confident from the
-    default ``P_0``, :mod:`estimators.tuning`); ``False`` gives the paper's ``sc3``.
+    ``conservative``: the variant with the settling phase (``sc3-conservative``, the default: not over-confident from
+    the default ``P_0``, :mod:`estimators.tuning`); ``False`` gives the paper's own (``sc3-paper``, over-confident from it).
     """
     w = prior.w_T_T_rad_s
     n = float(np.linalg.norm(w))
     fast = n >= fast_rad_s
     one_axis = n == 0.0 or np.max(np.abs(w)) / n >= np.cos(np.radians(single_axis_deg))
-    name = {(True, False): "sc1", (True, True): "sc2", (False, False): "sc3", (False, True): "sc4"}[(one_axis, fast)]
-    return f"{name}-settled" if settled else name
+    scenario = {(True, False): "sc1", (True, True): "sc2", (False, False): "sc3", (False, True): "sc4"}[(one_axis, fast)]
+    return f"{scenario}-conservative" if conservative else f"{scenario}-paper"
 
 
 def initialize_with_prior(x0, P0, prior: BodyRatePrior, servicer) -> tuple[np.ndarray, np.ndarray]:

@@ -122,7 +122,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         "lc_rate_deg_s": x.rate_deg_s if x.significant else float("nan"),
         "lc_rate_sigma_deg_s": x.rate_sigma_deg_s if x.significant else float("nan"),
         "lc_rate_error_pct": 100.0 * rendered.rate_error, "lc_maxima_per_rotation": x.maxima_per_rotation or 0,
-        "tuning_expected": f"{sc.name.lower()}-settled",
+        "tuning_expected": f"{sc.name.lower()}-conservative",
         "tuning_chosen": arm_tuning("tuning", rendered.spin) if rendered.spin is not None else "",
     }
     row["tuning_correct"] = row["tuning_chosen"] == row["tuning_expected"]

@@ -62,7 +62,7 @@ FIELDS: dict[str, Field] = {
     "dt_s": Field("float", "Filter step = measurement period tau_s, s.", gt=0),
     "q_blocks": Field("list[str]", "Q_d blocks on the grid.", choices=tuple(BLOCKS)),
     "q_exponents": Field("list[int]", "Each grid block's variance rate takes 10**exponent for these exponents."),
-    "q_base_tuning": Field("str", "Named tuning giving the blocks off the grid, P_0 and R_d.", choices=tuple(TUNINGS), default="general"),
+    "q_base_tuning": Field("str", "Named tuning giving the blocks off the grid, P_0 and R_d.", choices=tuple(TUNINGS), default="general-conservative"),
     "score_weight": Field("float", "lambda of G = lambda*C_t + (1 - lambda)*E_SS.", ge=0, le=1, default=0.5),
     **COMMON_FIELDS,
 }

@@ -159,8 +159,10 @@ def run(
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
     tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: '{DEFAULT_TUNING}' (consistent, with or "
-                                         "without a prior; the prior enters as the initial condition). The paper's choice by the prior: "
-                                         "sc1-settled ... sc4-settled.", callback=v.text(TUNINGS)),
+                                         "without a prior; the prior enters as the initial condition). What a spin prior selects in the demo and "
+                                         "the chain study: sc1-conservative ... sc4-conservative (the paper's scenario tunings with a "
+                                         "settling phase); sc1-paper ... sc4-paper as the paper has them (sc3-paper over-confident "
+                                         "from the default P_0).", callback=v.text(TUNINGS)),
     p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states).", callback=v.text()),
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
     runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),

@@ -45,7 +45,7 @@ ARMS = ("none", "tuning", "init", "proxy")
 #: How each arm uses the prior, for tables and plots.
 ARM_LABELS = {"none": "no prior", "tuning": "prior: tuning", "init": "prior: tuning + init", "proxy": "prior: tuning + init + proxy"}
 #: Tuning without a prior: the general filter of the tuning study (best on SC4).
-GENERAL_TUNING = "general"
+GENERAL_TUNING = "general-conservative"
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def render_prior(
 
 
 def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:
-    """The tuning name an arm uses: ``general`` without a prior, else the one the prior points to."""
+    """The tuning name an arm uses: ``general-conservative`` without a prior, else the one the prior points to."""
     if arm not in ARMS:
         raise ValueError(f"arm must be one of {ARMS}, got {arm!r}")
     if arm == "none":

@@ -206,14 +206,14 @@ def test_settled_tuning_from_the_default_p0(default_p0_runs, scenario, name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_prior_chosen_tuning_is_conservative_not_overconfident(default_p0_runs, name):
-    """``sc3-settled`` (what a spin prior of a slow two-axis tumble selects, Renis et al. study 1) from the default ``P_0``.
+    """``sc3-conservative`` (what a spin prior of a slow two-axis tumble selects, Renis et al. study 1) from the default ``P_0``.
 
-    The paper's ``sc3`` without a settling phase is over-confident: mean NEES/dof 4.7 (EKF) and 3.5 (UKF), worst run
+    The paper's ``sc3-paper`` without a settling phase is over-confident: mean NEES/dof 4.7 (EKF) and 3.5 (UKF), worst run
     60-88, attitude gate rejections 3.6 % (300 s, ``python -m benchmarks consistency``). With it: 0.52 and 0.52,
     worst run 1.0 and 0.96, rejections 0.9 %. Conservative on purpose (its ``Q_d`` stands for unmodelled
     torques the truth does not have), so only the upper side is tested, and a floor that says "not absurdly".
     """
-    r = default_p0_runs("SC3", name, "sc3-settled")
+    r = default_p0_runs("SC3", name, "sc3-conservative")
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
     _assert_not_overconfident(r, lowest_nees_per_dof=0.3)
 

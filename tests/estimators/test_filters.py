@@ -17,7 +17,7 @@ FILTERS = ["ekf", "ukf"]
 
 def _setup(truth, name, rng, duration=40.0):
     tr = truth("SC3", duration)
-    tun = get_tuning("sc3")
+    tun = get_tuning("sc3-paper")
     model = RelativeProcessModel(tr.J_S_diag)
     x0 = boxplus(tr.x[0], rng.normal(size=14) * np.sqrt(np.diag(tun.P_0)) * 0.3)
     f = make_filter(name, model, x0, tun.P_0, tun.Q_d(1.0), gate_confidence=0.99)
@@ -72,7 +72,7 @@ def test_step_that_would_produce_nan_is_refused(truth, rng, name):
 def test_bad_filter_input(truth, rng):
     tr = truth("SC3", 40.0)
     model = RelativeProcessModel(tr.J_S_diag)
-    tun = get_tuning("sc3")
+    tun = get_tuning("sc3-paper")
     with pytest.raises(ValueError, match="unknown filter 'kf'"):
         make_filter("kf", model, tr.x[0], tun.P_0, tun.Q_d(1.0))
     notpd = np.eye(14)
@@ -85,3 +85,5 @@ def test_bad_filter_input(truth, rng):
         make_filter("ekf", model, np.full(15, np.nan), tun.P_0, tun.Q_d(1.0))
     with pytest.raises(ValueError, match="unknown tuning"):
         get_tuning("nope")
+    with pytest.raises(ValueError, match="'sc3' is now called 'sc3-paper'"):
+        get_tuning("sc3")

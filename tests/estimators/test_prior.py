@@ -55,14 +55,14 @@ def test_light_curve_prior_makes_the_body_rate_prior(rng):
     p = lc.body_rate_prior(axis, source="test curve")
     np.testing.assert_allclose(p.w_T_T_rad_s, lc.rate_rad_s * axis / np.linalg.norm(axis), rtol=1e-15)
     np.testing.assert_array_equal(p.sigma_rad_s, np.full(3, lc.rate_sigma_rad_s))
-    assert p.source == "test curve" and tuning_for_prior(p) == "sc3-settled"  # slow, two axes
+    assert p.source == "test curve" and tuning_for_prior(p) == "sc3-conservative"  # slow, two axes
     noise = extract_spin_prior(t, rng.normal(0.0, 0.02, t.size), np.full(t.size, 0.02))
     assert not noise.significant
     with pytest.raises(ValueError, match="no rate"):
         noise.body_rate_prior()
 
 
-@pytest.mark.parametrize("name,expected", [("SC1", "sc1-settled"), ("SC2", "sc2-settled"), ("SC3", "sc3-settled"), ("SC4", "sc4-settled")])
+@pytest.mark.parametrize("name,expected", [("SC1", "sc1-conservative"), ("SC2", "sc2-conservative"), ("SC3", "sc3-conservative"), ("SC4", "sc4-conservative")])
 def test_tuning_by_name_from_the_prior(name, expected):
     prior = BodyRatePrior.from_truth(get_scenario(name).w_T0_T_rad_s, 0.05)
     assert tuning_for_prior(prior) == expected
@@ -74,7 +74,7 @@ def test_initialisation_from_the_prior(truth):
     prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
     x0 = tr.x[0].copy()
     x0[W_ST_T] = 0.0
-    P0 = get_tuning("sc3").P_0
+    P0 = get_tuning("sc3-paper").P_0
     x1, P1 = initialize_with_prior(x0, P0, prior, tr.servicer[0])
     # with the true attitude, ω_ST_0 is the truth's up to the prior's 5 % error (eq. 1)
     np.testing.assert_allclose(x1[W_ST_T] - tr.x[0, W_ST_T], -0.05 * tr.target[0, W_B], atol=1e-12)
@@ -108,7 +108,7 @@ def _blackout(truth, name, proxy, seed=1, reacquire_window=5):
     tr = truth("SC1", 240.0)
     m = simulate_pose_measurements(tr.t, tr.x, np.random.default_rng(seed), tau_s=1.0, faults=[(60.0, 120.0)])
     prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
-    tun = get_tuning("sc1")
+    tun = get_tuning("sc1-paper")
     x0 = np.zeros(N_STATE)
     x0[Q_TS] = (1.0, 0.0, 0.0, 0.0)
     x0[K] = [1.466 * 1.1, -1.439 * 0.9]

@@ -75,7 +75,7 @@ def test_tuning_settling_phase():
     assert np.all(t.q_rate[DK] > 0)
     np.testing.assert_allclose(t.Q_d(2.0), np.diag(2.0 * t.q_rate))
     np.testing.assert_allclose(np.diag(t.Q_d(2.0, settling=True)), 2.0 * (t.q_rate + t.settling_q_rate))
-    assert np.all(get_tuning("general").settling_q_rate == 0) and get_tuning("general").settling_s == 0
+    assert np.all(get_tuning("general-conservative").settling_q_rate == 0) and get_tuning("general-conservative").settling_s == 0
     with pytest.raises(ValueError, match="settling_s"):
         Tuning("x", np.zeros(14), np.ones(14), settling_s=-1.0)
     with pytest.raises(ValueError, match="settling_q_rate"):

@@ -13,7 +13,7 @@ PRIOR = BodyRatePrior.from_truth([0.0, 0.0, 0.05], 0.05)
 
 
 def test_defaults_normalise_the_containers():
-    s = NavigationSetup("ukf", get_tuning("sc1"), prior=PRIOR, prior_use="proxy", faults=[[60, 120]], consider=list(K_STATES),
+    s = NavigationSetup("ukf", get_tuning("sc1-paper"), prior=PRIOR, prior_use="proxy", faults=[[60, 120]], consider=list(K_STATES),
                         inertia_range=[0.8, 1.2], P0=np.eye(N_ERROR).tolist())
     assert s.faults == ((60.0, 120.0),) and s.consider == K_STATES and s.inertia_range == (0.8, 1.2)
     assert isinstance(s.P0, np.ndarray) and s.P0.shape == (N_ERROR, N_ERROR)
@@ -22,7 +22,7 @@ def test_defaults_normalise_the_containers():
 
 @pytest.mark.parametrize("field, value, message", [
     ("filter_name", "kf", "filter_name must be one of"),
-    ("tuning", "sc1", "tuning must be a Tuning"),
+    ("tuning", "sc1-paper", "tuning must be a Tuning"),
     ("prior_use", "both", "prior_use must be one of"),
     ("prior", None, "prior must be a BodyRatePrior when prior_use is 'init'"),
     ("proxy_mode", "sometimes", "proxy_mode must be one of"),
@@ -40,6 +40,6 @@ def test_defaults_normalise_the_containers():
     ("P0", np.eye(15), "P0 must be a finite 14x14 covariance"),
 ])
 def test_bad_field_is_named(field, value, message):
-    kwargs = {"filter_name": "ekf", "tuning": get_tuning("sc1"), "prior": PRIOR, "prior_use": "init", field: value}
+    kwargs = {"filter_name": "ekf", "tuning": get_tuning("sc1-paper"), "prior": PRIOR, "prior_use": "init", field: value}
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")):
         NavigationSetup(**kwargs)

@@ -121,7 +121,7 @@ def test_navigate_draws_and_filters_with_one_pose_noise():
 
     tr = simulate_truth(get_scenario("SC1"), 400.0, 1.0)
     noise = PoseNoise(0.03, 1.2, "gaussian")
-    setup = NavigationSetup("ekf", get_tuning("sc1"), pose_noise=noise, consider=K_STATES)
+    setup = NavigationSetup("ekf", get_tuning("sc1-paper"), pose_noise=noise, consider=K_STATES)
     run, (_, _, r, _) = navigate(tr, setup, np.random.default_rng(3))
     assert run.pose_noise == noise
     # 1200 position-error components of sd 1.2/sqrt(3): their variance within 15 % of R (0.48 m²; ~4 % sd at this size)
