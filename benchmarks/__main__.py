@@ -48,14 +48,16 @@ def main(names: list[str]) -> None:
     if unknown:
         raise SystemExit(f"unknown benchmark(s) {unknown}; available: {available}")
     chosen = names or available
-    old = _sections(RESULTS.read_text()) if RESULTS.exists() else {}
-    today = datetime.date.today().isoformat()
+    new = {}
     for name in chosen:
         print(f"[bench] {name} ...", flush=True)
         mod = importlib.import_module(f"benchmarks.bench_{name}")
         body = mod.run().rstrip() + "\n"
-        old[name] = f"_Measured {today} on {_machine()}._\n\n" + body
+        new[name] = f"_Measured {datetime.date.today().isoformat()} on {_machine()}._\n\n" + body
         print(body)
+    # read the other sections only now: a benchmark run meanwhile in another process keeps what it wrote
+    old = _sections(RESULTS.read_text()) if RESULTS.exists() else {}
+    old.update(new)
     parts = ["# Benchmark results\n", "Written by `make bench` (`python -m benchmarks [NAME ...]`). Each section states",
              "the machine and date it was measured on; ratios compare against baselines", "measured in the same run.\n"]
     for name in available:
