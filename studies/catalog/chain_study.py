@@ -9,7 +9,7 @@ an ω vector about the **assumed** axis (the scenario's true initial spin axis:
 a light curve gives no axis; :attr:`studies.sim.chain.RenderedPrior.mapping`).
 Then, on the same simulated pose measurements, every filter runs in three arms:
 
-* ``none`` — no prior: the general tuning, ``ω̂_0 = 0``;
+* ``none`` — no prior: the ``general-conservative`` tuning, ``ω̂_0 = 0``;
 * ``tuning`` — the prior's first use (§6.1): the scenario-specific tuning
   :func:`estimators.prior.tuning_for_prior` picks from the measured rate;
 * ``init`` (experiment ``init``: SC3, 450 s, §6.2) — that tuning and the prior
@@ -200,7 +200,7 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     notes = (f"Per seed a light curve of {config['target']} ({config['observation_duration_s']:g} s at {config['cadence_s']:g} s, "
              f"{config['render_resolution_px']} px) is rendered with the scenario's initial spin and WindowCLEAN gives the prior rate; "
              "the prior ω = rate × the scenario's true initial spin axis (assumed: a light curve gives no axis), 1-σ from the fit. "
-             "Arms: no prior (general tuning, ω̂_0 = 0); prior: tuning (tuning_for_prior); prior: tuning + init (§6.2); "
+             "Arms: no prior (general-conservative tuning, ω̂_0 = 0); prior: tuning (tuning_for_prior); prior: tuning + init (§6.2); "
              "prior: tuning + init + proxy (§6.3, with the fault window). Same measurements in every arm. State-based metrics of §6 "
              "(RMSE units: q rad, w rad/s, r m, v m/s, k –); 'failed': runs in which the filter broke down numerically "
              "(counted as not converged, message in runs.parquet); 'converged': fraction of seeds converged; t statistics over converged seeds; "

@@ -8,7 +8,7 @@
    and maps it to an ω vector about an **assumed** axis (see
    :attr:`studies.sim.chain.RenderedPrior.mapping`);
 3. runs the EKF and the UKF on SC3 (Renis et al. Table 1) without the prior
-   (general tuning, ``ω̂_0 = 0``) and with it (the tuning it points to and
+   (``general-conservative`` tuning, ``ω̂_0 = 0``) and with it (the tuning it points to and
    the prior as initial condition, §6.2), on the same measurements, through
    the code path of ``lcnav run``;
 4. prints the comparison table (convergence time and steady-state RMSE of
@@ -137,7 +137,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     table = comparison_table(rows)
     full = pd.DataFrame(rows)
     notes = (f"{sc.name} ({sc.description}), {config.duration_s:g} s at {config.dt_s:g} s, the same simulated pose measurements "
-             f"for every run. 'no prior': the general tuning and ω̂_0 = 0; 'prior: tuning + init': the tuning the light-curve prior "
+             f"for every run. 'no prior': the general-conservative tuning and ω̂_0 = 0; 'prior: tuning + init': the tuning the light-curve prior "
              f"points to and ω̂_0 from the prior with its P_0 block (Renis et al. §6.2). t_conv: time after which the state error stays below "
              f"the threshold (q, w 2°, r 1 m, v 0.1 m/s, k 0.2); RMSE from t_conv on (Renis et al. §6); '–': did not converge. "
              f"Prior: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s from the light curve ({100 * rendered.rate_error:+.3f} % "
