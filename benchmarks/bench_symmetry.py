@@ -30,7 +30,7 @@ SEEDS = range(1, 11)
 TARGETS = ("symmetric", "asymmetric")
 #: 0.3 TU ≈ 290 s ≈ 96 frames at 0.33 Hz: the roll test's window fills after 5.
 DURATION_TU = 0.3
-THRESHOLD = RollSymmetryTest.__init__.__kwdefaults__["ratio_threshold"]
+THRESHOLD = RollSymmetryTest.__init__.__kwdefaults__["threshold"]
 
 
 def _run(case: tuple[str, int]) -> dict:
@@ -42,7 +42,7 @@ def _run(case: tuple[str, int]) -> dict:
     return {"target": target, "seed": seed, "frames": len(run.steps), "detected": m["symmetry_detected"],
             "switch_time_s": m["switch_time_s"], "frames_to_switch": (None if run.switch_time_s is None
                                                                       else int(np.searchsorted([s.t for s in run.steps], run.switch_time_s)) + 1),
-            "roll_ratio_median": m["roll_ratio_median"], "mode": m["mode"], "axis_error_deg": m.get("axis_error_deg"),
+            "roll_discrepancy_median": m["roll_discrepancy_median"], "mode": m["mode"], "axis_error_deg": m.get("axis_error_deg"),
             "first_fit_ends_swapped": bool(quat_to_dcm(run.measurements[0].q_IT)[:, 1] @ quat_to_dcm(run.truth.q_IT[0])[:, 1] < 0),
             "s_per_iteration": wall / len(run.steps)}
 
@@ -64,10 +64,11 @@ def run() -> str:
         f"Closed loop of `run_combina` on rendered measurements: 512 px stereo at 8 spp (not `--quick`), {DURATION_TU} TU "
         f"({rows[0]['frames']} frames at 0.33 Hz), seeds {SEEDS.start}–{SEEDS.stop - 1} per target (each its own initial "
         f"estimate from eq. 48 and its own image noise). Symmetry: the geometric roll test over {ROLL_WINDOW} clouds "
-        f"(every roll by 90/180/270° about the body axis fits the coarse model within {THRESHOLD}× the unrolled fit); "
+        f"(every roll by 90/180/270° about the body axis adds to the cloud's residual less than {THRESHOLD} of what a 90° turn "
+        "about a perpendicular axis adds, `roll_discrepancy`); "
         "the rocket body is symmetric, the box-wing is not (a switch there is a false detection).",
         "",
-        "| target | detected (95 % Wilson) | switch time (s) | frames to switch | roll ratio, median per run | final mode "
+        "| target | detected (95 % Wilson) | switch time (s) | frames to switch | roll discrepancy, median per run | final mode "
         "| axis error at the end, as a line (deg) | axis ends swapped | first registration ends swapped | s per iteration |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -81,10 +82,10 @@ def run() -> str:
         ax = [min(r["axis_error_deg"], 180.0 - r["axis_error_deg"]) for r in sub if r["axis_error_deg"] is not None]
         swapped = sum(r["axis_error_deg"] > 90.0 for r in sub if r["axis_error_deg"] is not None)
         first_swapped = sum(r["first_fit_ends_swapped"] for r in sub)
-        ratios = [r["roll_ratio_median"] for r in sub if r["roll_ratio_median"] is not None]
+        ratios = [r["roll_discrepancy_median"] for r in sub if r["roll_discrepancy_median"] is not None]
         modes = sorted({r["mode"] for r in sub})
         lines.append(f"| {tg} | {k}/{len(sub)} ({100 * ci.lo:.0f}–{100 * ci.hi:.0f} %) | "
-                     f"{_range(sw, '.0f')} | {_range(fr, 'd')} | {_range(ratios, '.2f')} | {', '.join(modes)} | "
+                     f"{_range(sw, '.0f')} | {_range(fr, 'd')} | {_range(ratios, '.3f')} | {', '.join(modes)} | "
                      f"{_range(ax, '.2f')} | {swapped}/{len(ax)} | {first_swapped}/{len(sub)} | "
                      f"{np.median([r['s_per_iteration'] for r in sub]):.2f} |")
     lines += ["", "Ranges are over the seeds. 'Ends swapped': the estimated axis points from the body's other end (axis "

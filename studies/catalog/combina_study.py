@@ -158,8 +158,9 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     sym_notes = (f"Symmetry declared when the median of the last {detector.window} angles between the measured relative "
                  "rotation of consecutive registrations and the filter's integrated prediction (eqs 33-34, counted only "
                  f"while 3σ of the prediction is below the threshold) exceeds {np.rad2deg(detector.threshold_rad):g}°, or "
-                 "(rendered chain) when the clouds rolled by 90/180/270° about the body y axis fit the coarse model as well "
-                 "as unrolled (RollSymmetryTest); the detection rate carries a Wilson interval, the switch time a BCa "
+                 "(rendered chain) when the clouds rolled by 90/180/270° about the body y axis fit the coarse model nearly as "
+                 "well as unrolled, measured against a perpendicular 90° turn (RollSymmetryTest); the detection rate carries "
+                 "a Wilson interval, the switch time a BCa "
                  "bootstrap interval of the median.")
     for target in dict.fromkeys(runs["target"]):
         plot_convergence(runs[runs["target"] == target], target, out_dir, out_dir / f"convergence_{target}.png")

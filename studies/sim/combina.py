@@ -285,8 +285,9 @@ class CombinaRun:
     acquisition_time_s: float | None = None  #: when the attitude filter restarted from the batch acquisition (:meth:`_ClosedLoop._acquire`; None: never)
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
-    #: (n, 2) [t (s), worst roll ratio] of the geometric symmetry test (rendered chain)
-    roll_ratios: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    #: (n, 2) [t (s), roll discrepancy] of the geometric symmetry test (rendered chain; NaN: the cloud did not count,
+    #: :func:`estimators.combina.symmetry.roll_discrepancy`)
+    roll_discrepancies: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def _nan(n):
@@ -380,7 +381,7 @@ class _ClosedLoop:
         self.roll_test = None if self.model_T is None else RollSymmetryTest(self.model_T, SYMMETRY_AXIS_T, window=ROLL_WINDOW)
         self.C_post_fed = quat_to_dcm(self.att.q_IT).T  # Ĉ_TI(k|k) at the last epoch the detector was fed
         self.rejected_s = self.rejected_a = 0  # consecutive Mahalanobis rejections
-        self.roll_ratios: list[tuple[float, float]] = []
+        self.roll_discrepancies: list[tuple[float, float]] = []
         self.axi: AxisymmetricUKF | None = None
         self.C_GammaI = None
         self.detector = SymmetryDetector()
@@ -491,7 +492,7 @@ class _ClosedLoop:
             self.checks.append(check)
         if self.roll_test is not None and m.cloud_L is not None and len(m.cloud_L) >= 10:
             cloud_T = cloud_in_model_frame(m.cloud_L, m.r_L, m.C_TI, self.truth.C_LI[i].T, m.scale)
-            self.roll_ratios.append((ti, self.roll_test.add(ti, cloud_T)))
+            self.roll_discrepancies.append((ti, self.roll_test.add(ti, cloud_T)))
 
     def _correct_attitude(self, ti: float, m: RegisteredPose) -> tuple[bool, bool]:
         """Gate and correct the attitude filter; ``(accepted, shadow switch)``. Covariance reset after too many rejections."""
@@ -615,7 +616,7 @@ class _ClosedLoop:
                           proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s,
                           translation_restarts=self.translation_restarts,
                           prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
-                          roll_ratios=np.array(self.roll_ratios).reshape(-1, 2))
+                          roll_discrepancies=np.array(self.roll_discrepancies).reshape(-1, 2))
 
 
 def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
@@ -789,7 +790,7 @@ def combina_metrics(run: CombinaRun) -> dict:
         "units": {"TU_s": TU, "LU_m": LU, "note": "errors in SI: m, m/s, MRP, rad/s, 1, rad, rad/s"},
         "mode": run.steps[-1].mode,
         "symmetry_detected": run.switch_time_s is not None,
-        "roll_ratio_median": float(np.median(run.roll_ratios[:, 1])) if len(run.roll_ratios) else None,
+        "roll_discrepancy_median": float(np.nanmedian(run.roll_discrepancies[:, 1])) if np.any(np.isfinite(run.roll_discrepancies[:, 1])) else None,
         "switch_time_s": run.switch_time_s,
         "components": comps,
         "gate_counts": counts,

@@ -5,7 +5,9 @@ import pytest
 
 from estimators.attitude import dcm_angle, quat_multiply, quat_to_dcm, random_quaternion, rotvec_to_quat
 from estimators.dynamics import inertia_from_k, integrate_absolute
-from estimators.combina.symmetry import RollSymmetryTest, SymmetryDetector, cloud_in_model_frame, roll_self_registration
+from scipy.spatial.transform import Rotation
+
+from estimators.combina.symmetry import RollSymmetryTest, SymmetryDetector, cloud_in_model_frame, roll_discrepancy, roll_self_registration
 from lightcurves.targets import get_target
 from perception.model import mesh_surface_points
 
@@ -106,6 +108,39 @@ def test_roll_self_registration_separates_the_meshes(models):
             assert lo <= worst <= hi, (name, worst)
 
 
+def _one_sided_cloud(name: str, rng) -> np.ndarray:
+    pts, _ = mesh_surface_points(get_target(name), 4000, rng)
+    view = rng.normal(size=3)
+    return pts[pts @ view > 0] + 0.02 * rng.normal(size=(int(np.sum(pts @ view > 0)), 3))
+
+
+def test_roll_discrepancy_is_small_only_for_the_symmetric_body(models):
+    """Well registered one-sided clouds (2 cm noise), 10 each: a roll about y adds < 1 % of what a perpendicular 90° turn
+    adds to the Atlas-Centaur's residual, > 10 % to the box-wing's (100 clouds each: −0.003–0.004 and 0.19–1.7)."""
+    rng = np.random.default_rng(2)
+    for name, (lo, hi) in (("atlas-centaur", (-0.01, 0.01)), ("box-wing", (0.1, np.inf))):
+        for _ in range(10):
+            d, turn = roll_discrepancy(_one_sided_cloud(name, rng), models[name], [0.0, 1.0, 0.0])
+            assert lo <= d <= hi and turn > 2.0, (name, d, turn)
+
+
+def test_a_failed_registration_does_not_look_symmetric(models):
+    """Box-wing clouds registered 60–90° and 0.3 m off fit the model as badly rolled as unrolled (worst roll ratio
+    < 1.5: the ratio test declared symmetry on such clouds on the rendered chain); a 90° turn fits them as well as
+    their registration, so they do not count, and the test never declares symmetry."""
+    rng = np.random.default_rng(3)
+    test = RollSymmetryTest(models["box-wing"], [0.0, 1.0, 0.0])
+    ratios = []
+    for i in range(3 * test.window):
+        axis = rng.normal(size=3)
+        turn = Rotation.from_rotvec(np.deg2rad(rng.uniform(60.0, 90.0)) * axis / np.linalg.norm(axis))
+        cloud = turn.apply(_one_sided_cloud("box-wing", rng)) + 0.3 * rng.normal(size=3)
+        ratios.append(float(np.max(roll_self_registration(cloud, models["box-wing"], [0.0, 1.0, 0.0]))))
+        test.add(i * DT, cloud)
+    assert np.median(ratios) < 1.5
+    assert not test.detected and len(test.recent) < test.window
+
+
 def test_roll_test_window_and_cloud_frame(models):
     """Clouds given in LVLH relative to the chaser come back into the model frame; 5 symmetric clouds detect."""
     rng = np.random.default_rng(4)
@@ -129,5 +164,7 @@ def test_bad_input():
         SymmetryDetector(threshold_rad=-1.0)
     with pytest.raises(ValueError, match="cloud_T"):
         roll_self_registration(np.zeros((3, 3)), np.zeros((10, 3)), [0, 1, 0])
-    with pytest.raises(ValueError, match="ratio_threshold"):
-        RollSymmetryTest(np.zeros((10, 3)), [0, 1, 0], ratio_threshold=1.0)
+    with pytest.raises(ValueError, match="threshold"):
+        RollSymmetryTest(np.zeros((10, 3)), [0, 1, 0], threshold=1.0)
+    with pytest.raises(ValueError, match="axis_T"):
+        roll_discrepancy(np.ones((20, 3)), np.zeros((10, 3)), [0, 0, 0])

@@ -26,12 +26,14 @@ def test_quick_rendered_symmetric_target_detected(runs):
     assert run.steps[-1].mode == "axisymmetric"
     # detected as soon as the roll test's window is full (a --quick run has ~15 frames)
     assert run.switch_time_s <= run.steps[ROLL_WINDOW + 2].t
-    assert np.all(run.roll_ratios[:, 1] < RollSymmetryTest.__init__.__kwdefaults__["ratio_threshold"])
+    d = run.roll_discrepancies[:, 1]
+    assert np.all(d[np.isfinite(d)] < RollSymmetryTest.__init__.__kwdefaults__["threshold"])
 
 
 def test_quick_rendered_asymmetric_target_not_detected(runs):
     run = runs["asymmetric"]
     assert run.switch_time_s is None
-    assert len(run.roll_ratios) >= ROLL_WINDOW
-    # the box-wing's worst roll leaves its clouds well off the model: median ratio above 2 (threshold 1.5)
-    assert np.median(run.roll_ratios[:, 1]) > 2.0
+    assert np.sum(np.isfinite(run.roll_discrepancies[:, 1])) >= ROLL_WINDOW
+    # the box-wing's worst roll adds about as much residual as a perpendicular 90° turn: median discrepancy
+    # above 0.5 (threshold 0.05; 0.9-2.6 measured on 256 px frames)
+    assert np.nanmedian(run.roll_discrepancies[:, 1]) > 0.5
