@@ -6,8 +6,9 @@ non-quick run: 512 px stereo frames at 8 samples per pixel (``--quick`` renders
 geometric roll test (:class:`estimators.combina.symmetry.RollSymmetryTest`) on
 every cloud, the closed loop of :func:`studies.sim.combina.run_combina`. Per
 target and seed: whether and when the filter switched to the axisymmetric mode,
-the roll test's median ratio (threshold 1.5), the final mode and, for the rocket
-body, the symmetry-axis error at the end. Not a speed benchmark: the wall time
+the roll test's median discrepancy (:func:`estimators.combina.symmetry.roll_discrepancy`,
+threshold 0.05), the final mode and, for the rocket body, the symmetry-axis error
+at the end. Not a speed benchmark: the wall time
 per iteration is reported because rendering dominates it.
 
 ``python -m benchmarks symmetry`` regenerates the section.

@@ -230,8 +230,8 @@ def roll_discrepancy(cloud_T, model_T, axis_T, *, model_tree=None) -> tuple[floa
     e1 = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
     e1 /= np.linalg.norm(e1)
     turns = 0.5 * np.pi * np.array([e1, np.cross(a, e1)])
-    r_turn = float(np.min(_residual_ratios(P, tree, turns)))
-    r_roll = float(np.max(_residual_ratios(P, tree, np.asarray(ROLL_ANGLES_RAD)[:, None] * a[None, :])))
+    ratios = _residual_ratios(P, tree, np.vstack([turns, np.asarray(ROLL_ANGLES_RAD)[:, None] * a[None, :]]))  # one floor query
+    r_turn, r_roll = float(np.min(ratios[:2])), float(np.max(ratios[2:]))
     return ((r_roll - 1.0) / (r_turn - 1.0) if r_turn > MIN_TURN_RATIO else float("nan")), r_turn
 
 
