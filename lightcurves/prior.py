@@ -27,7 +27,13 @@ aliased photometry):
    maxima per cycle — not because peaks line up. The best candidate's
    frequency is refined by minimising χ²; samples its fit leaves more than
    3.5 robust σ away (outliers) are dropped and the three best candidates are
-   refined and compared again on the rest. **P against 2P**: when the
+   refined and compared again on the rest. **Sub-harmonics must earn their
+   harmonics**: BIC's ``χ²/s²`` treats the noise as white, so under red noise
+   the winner ``f`` stands as ``f_true/m`` (m = 3, 2) only if its harmonics
+   that are no multiples of ``m`` pass a Wald test at 1 % against the noise
+   fitted to the residuals of the fit at ``m f`` (a sinusoid plus OU noise
+   was ranked at ``f/2`` or ``f/3`` in 50 of 60 passes without it; the test
+   runs when the winner's residuals are red). **P against 2P**: when the
    winner's residuals are white, an F-test of the odd harmonics 1 and 3 of
    ``f/2`` against the ``K``-harmonic fit at ``f`` makes ``f/2`` the
    fundamental at p < 0.01 — BIC's ``ln N`` per parameter kept eclipsing
@@ -54,7 +60,10 @@ aliased photometry):
    ``Σ`` the fitted Ornstein–Uhlenbeck + white covariance of the residuals — the
    structure a ``K``-harmonic model leaves on a non-sinusoidal curve and
    correlated noise both make ``Σ`` non-diagonal; the white-noise ``σ`` is
-   26–35× too small on renders. ``rate = 2π f_rot`` is the *synodic* rate:
+   26–35× too small on renders. The OU part is a process in magnitudes (the
+   error bars weigh the white part only), its correlation time is corrected by
+   a parametric bootstrap for what the fit removes from the residuals, and
+   the variance scale comes from ``E rᵀr = tr((I − H) Σ)``. ``rate = 2π f_rot`` is the *synodic* rate:
    it differs from the sidereal one by the turning rate of the Sun–observer
    bisector about the spin axis. The axis is unknown, so when the geometry
    is given (``sun_dir``, ``observer_dir``) the bisector's mean angular rate
@@ -253,16 +262,18 @@ def _lag_bin_bounds(t: np.ndarray, L: int, d_cut: float, edges: np.ndarray) -> t
 
 
 @numba.njit(cache=True)
-def _lag_products(r: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """``Σ r_i r_{i+k}`` over the pairs of each bin of :func:`_lag_bin_bounds`, from the prefix sums of ``r`` (the
-    pairs of a bin are a run of ``k``): ``O(25 N)``."""
-    R = np.zeros(r.size + 1)
-    for m in range(r.size):
-        R[m + 1] = R[m] + r[m]
-    out = np.zeros(bounds.shape[1] - 1)
-    for i in range(r.size):
-        for b in range(out.size):
-            out[b] += r[i] * (R[i + bounds[i, b + 1]] - R[i + bounds[i, b]])
+def _lag_products(R: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """``Σ r_i r_{i+k}`` over the pairs of each bin of :func:`_lag_bin_bounds`, for each row ``r`` of ``R`` (series ×
+    N), from the prefix sums of ``r`` (the pairs of a bin are a run of ``k``): ``O(25 N)`` a row."""
+    M, N = R.shape
+    out = np.zeros((M, bounds.shape[1] - 1))
+    P = np.zeros(N + 1)
+    for m in range(M):
+        for i in range(N):
+            P[i + 1] = P[i] + R[m, i]
+        for i in range(N):
+            for b in range(out.shape[1]):
+                out[m, b] += R[m, i] * (P[i + bounds[i, b + 1]] - P[i + bounds[i, b]])
     return out
 
 
@@ -307,15 +318,22 @@ def _correlation_fit(t: np.ndarray, r: np.ndarray, lags: _LagBins | None = None)
     Correlation is accepted when it lowers Σ n_b ρ_b² (χ² of "white", n_b pairs per bin) by more than 20.
     ``lags``: :meth:`_LagBins.of` ``(t)``, when several fits share the times.
     """
-    lags = _LagBins.of(t) if lags is None else lags
+    a, tau = _correlation_fits(t, np.asarray(r, dtype=float)[None, :], _LagBins.of(t) if lags is None else lags)
+    return float(a[0]), float(tau[0])
+
+
+def _correlation_fits(t: np.ndarray, R: np.ndarray, lags: _LagBins) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_correlation_fit` of each row of ``R`` (series × N): ``(a, τ)`` arrays."""
     nb = lags.nb
-    rho = _lag_products(np.ascontiguousarray(r, dtype=float), lags.bounds)[lags.ok] / nb / np.mean(r**2)
-    E = lags.E
-    a = np.clip((E * nb * rho).sum(axis=1) / (E * E * nb).sum(axis=1), 0.0, 1.0)
-    sse = (nb * (rho - a[:, None] * E) ** 2).sum(axis=1)
-    i = int(np.argmin(sse))
-    white = float(np.sum(nb * rho**2))
-    return (float(a[i]), float(lags.taus[i])) if white - sse[i] > 20.0 and a[i] > 0 else (0.0, 0.0)
+    rho = _lag_products(np.ascontiguousarray(R), lags.bounds)[:, lags.ok] / nb / np.mean(R**2, axis=1)[:, None]  # (M, bins)
+    E = lags.E  # (τ grid, bins)
+    a = np.clip((rho * nb) @ E.T / (E * E * nb).sum(axis=1), 0.0, 1.0)  # (M, τ grid)
+    sse = (nb * rho**2).sum(axis=1)[:, None] - 2.0 * a * ((rho * nb) @ E.T) + a**2 * (E * E * nb).sum(axis=1)
+    i = np.argmin(sse, axis=1)
+    rows = np.arange(R.shape[0])
+    white = np.sum(nb * rho**2, axis=1)
+    seen = (white - sse[rows, i] > 20.0) & (a[rows, i] > 0)
+    return np.where(seen, a[rows, i], 0.0), np.where(seen, lags.taus[i], 0.0)
 
 
 @numba.njit(cache=True)
@@ -354,12 +372,12 @@ def _debiased_correlation(t: np.ndarray, w: np.ndarray, J: np.ndarray, lags: _La
     for _ in range(3):
         e = (np.sqrt(a) * _ou_draws(t, tau, eps_ou) + np.sqrt(1.0 - a) * eps_w) * w
         r = (e - (e @ Q) @ Q.T) / w
-        fits = np.array([_correlation_fit(t, r_m, lags) for r_m in r])
-        seen = fits[:, 1] > 0.0
+        a_m, tau_m = _correlation_fits(t, r, lags)
+        seen = tau_m > 0.0
         if seen.sum() < _N_BOOT // 2:
             return (a0, tau0) if tau == tau0 else (a, tau)
-        tau *= tau0 / float(np.exp(np.mean(np.log(fits[seen, 1]))))
-        a = float(np.clip(a + a0 - np.mean(fits[seen, 0]), 1e-3, 1.0))
+        tau *= tau0 / float(np.exp(np.mean(np.log(tau_m[seen]))))
+        a = float(np.clip(a + a0 - np.mean(a_m[seen]), 1e-3, 1.0))
     return a, float(min(tau, t[-1] - t[0]))
 
 
@@ -1054,7 +1072,9 @@ def _no_empty_subharmonic(s: _Series, fit: _Fit, max_harmonics: int) -> tuple[_F
     white power at low frequencies, and its extra harmonics "paid" for themselves: on the calibration passes
     (development seed 11, 300 with red noise) 40 fundamentals came out at ``f/2`` or ``f/3`` (white noise: 0 of 300);
     with this test 11, of which 6 now at ``2f`` (eclipses of nearly equal depth under red noise, whose odd harmonics
-    the noise hides; 2 before). ``(fit, description)``; the description is empty when ``fit`` stands.
+    the noise hides; 2 before). The caller runs it only when the winner's residuals are red: on white ones BIC
+    is calibrated (0 of 300) and the test's two null fits would double the time of a satellite pass.
+    ``(fit, description)``; the description is empty when ``fit`` stands.
     """
     why = []
     for _ in range(4):
@@ -1080,7 +1100,9 @@ def _choose_fundamental(s: _Series, trial: np.ndarray, max_harmonics: int) -> tu
     describe = (f"a {K}-harmonic fit at the fundamental {f_fit:.6g} Hz has the lowest BIC of {trial.size} trial frequencies "
                 f"(periodogram peaks, their window aliases, f/2, f/3, 2f); runner-up ΔBIC {delta_bic:.1f}" if delta_bic is not None else
                 f"a {K}-harmonic fit at {f_fit:.6g} Hz")
-    fit, why = _no_empty_subharmonic(s, _Fit.at(s, f_fit, K), max_harmonics)
+    fit = _Fit.at(s, f_fit, K)
+    # BIC holds on white residuals; on red ones a sub-harmonic must earn its harmonics against the noise
+    fit, why = _no_empty_subharmonic(s, fit, max_harmonics) if fit.correlation[1] > 0.0 else (fit, "")
     if why:
         return s, fit, None, s2, f"{describe}; {why}"
     f_fit = fit.f

@@ -10,7 +10,7 @@ from lightcurves.nufft import trig_sums
 from lightcurves.phasors import cis
 from astropy.timeseries import LombScargle
 
-from lightcurves.prior import _correlation_fit, _lag_products, _LagBins, _ou_lags, _red_spectrum, _sinusoid_fits
+from lightcurves.prior import _correlation_fit, _lag_products, _LagBins, _ou_apply, _ou_draws, _ou_lags, _red_spectrum, _sinusoid_fits
 
 
 def test_phasors_are_cos_and_sin_to_the_last_bits():
@@ -186,7 +186,7 @@ def test_lag_bins_are_the_logarithmic_bins_of_every_pair(kind):
     lags = _LagBins.of(t)
     assert np.array_equal(lags.nb, n_ref[n_ref > 0]) and np.array_equal(lags.ok, n_ref > 0)
     assert np.allclose(lags.lag, lag_ref[n_ref > 0] / n_ref[n_ref > 0], rtol=1e-12)
-    assert np.allclose(_lag_products(r, lags.bounds)[lags.ok], prod_ref[n_ref > 0], rtol=1e-12, atol=1e-12 * np.abs(prod_ref).max())
+    assert np.allclose(_lag_products(r[None, :], lags.bounds)[0, lags.ok], prod_ref[n_ref > 0], rtol=1e-12, atol=1e-12 * np.abs(prod_ref).max())
 
 
 def test_correlation_fit_recovers_an_ornstein_uhlenbeck_fraction_and_time():
@@ -229,3 +229,16 @@ def test_batched_sinusoid_fits_are_astropys(errors):
     power, amplitude = _sinusoid_fits(t, y, dy, f)
     assert np.allclose(power, ls.power(f, method="cython"), rtol=0.0, atol=1e-12)
     assert np.allclose(amplitude, [np.hypot(*ls.model_parameters(x)[1:]) for x in f], rtol=1e-10, atol=0.0)
+
+
+def test_ou_kernel_product_is_the_dense_matrix_product():
+    """``_ou_apply`` (two recursions along sorted times) equals ``K U`` with the dense ``K_ij = e^{−|t_i − t_j|/τ}``,
+    and an OU draw of ``_ou_draws`` has the kernel's lag-one correlation."""
+    rng = np.random.default_rng(4)
+    t = np.sort(rng.uniform(0.0, 300.0, 400))
+    U = rng.normal(size=(t.size, 3))
+    K = np.exp(-np.abs(t[:, None] - t[None, :]) / 7.0)
+    np.testing.assert_allclose(_ou_apply(t, U, 7.0), K @ U, rtol=1e-10, atol=1e-10)
+    te = np.arange(0.0, 20000.0, 1.0)
+    x = _ou_draws(te, 5.0, rng.standard_normal((1, te.size)))[0]
+    assert abs(np.mean(x[1:] * x[:-1]) - np.exp(-1 / 5.0)) < 0.03 and abs(np.var(x) - 1.0) < 0.08
