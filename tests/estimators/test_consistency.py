@@ -134,7 +134,7 @@ def test_nees_matches_an_exact_kalman_filter_on_the_same_noise(consistency_runs,
 
 #: Runs, duration (s) and statistics window of the default-P_0 check (the benchmark's 300 s, shortened:
 #: every failure measured so far shows by 120 s).
-N_DEFAULT, DURATION_DEFAULT_S = 30, 120.0
+N_DEFAULT, DURATION_DEFAULT_S = 20, 120.0
 
 
 @pytest.fixture(scope="module")
@@ -171,7 +171,7 @@ def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name)
 
 
 def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
-    """Mean NEES/dof under the upper 95 % bound of a 30-run mean (the time average only narrows it), not below
+    """Mean NEES/dof under the upper 95 % bound of an N_DEFAULT-run mean (the time average only narrows it), not below
     ``lowest_nees_per_dof``;
     mean NIS/dof under the upper 95 % bound of all the innovations after the settling time (3 dof each, white for a
     consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
