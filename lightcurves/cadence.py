@@ -27,9 +27,10 @@ with a fraction of outliers; :func:`red_noise` an Ornstein–Uhlenbeck
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
-__all__ = ["DAY_S", "YEAR_S", "SHAPES", "survey_times", "satellite_times", "curve", "heteroscedastic_noise", "red_noise"]
+__all__ = ["DAY_S", "YEAR_S", "SHAPES", "survey_times", "satellite_times", "curve", "heteroscedastic_noise", "red_noise", "ou_paths"]
 
 DAY_S = 86_400.0
 YEAR_S = 365.25 * DAY_S
@@ -131,16 +132,24 @@ def heteroscedastic_noise(rng: np.random.Generator, n: int, sigma_mag: float, *,
     return noise, err
 
 
+@numba.njit(cache=True)
+def ou_paths(t: np.ndarray, tau_s: float, eps: np.ndarray) -> np.ndarray:
+    """Unit-variance Ornstein–Uhlenbeck paths of correlation time ``tau_s`` at sorted times ``t``, one per row of the
+    standard-normal ``eps`` (paths × N): ``x_{i+1} = φ x_i + sqrt(1 − φ²) ε_{i+1}``, ``φ = exp(−Δt/τ)`` (exact
+    discretisation)."""
+    x = np.empty_like(eps)
+    for m in range(eps.shape[0]):
+        x[m, 0] = eps[m, 0]
+        for i in range(1, t.size):
+            phi = np.exp(-(t[i] - t[i - 1]) / tau_s)
+            x[m, i] = phi * x[m, i - 1] + np.sqrt(1.0 - phi * phi) * eps[m, i]
+    return x
+
+
 def red_noise(rng: np.random.Generator, t, sigma_mag: float, tau_s: float) -> np.ndarray:
-    """An Ornstein–Uhlenbeck process of standard deviation ``sigma_mag`` and correlation time ``tau_s`` at sorted times ``t``:
-    ``x_{i+1} = φ x_i + sqrt(1 − φ²) σ ε``, ``φ = exp(−Δt/τ)`` (exact discretisation)."""
+    """An Ornstein–Uhlenbeck process of standard deviation ``sigma_mag`` and correlation time ``tau_s`` at sorted times
+    ``t`` (:func:`ou_paths`)."""
     t = np.asarray(t, dtype=float)
     if not (sigma_mag > 0 and tau_s > 0):
         raise ValueError(f"need sigma_mag > 0 and tau_s > 0, got {sigma_mag}, {tau_s}")
-    phi = np.exp(-np.diff(t) / tau_s)
-    e = rng.normal(0.0, sigma_mag, t.size)
-    x = np.empty(t.size)
-    x[0] = e[0]
-    for i in range(1, t.size):
-        x[i] = phi[i - 1] * x[i - 1] + np.sqrt(1.0 - phi[i - 1] ** 2) * e[i]
-    return x
+    return sigma_mag * ou_paths(t, float(tau_s), rng.standard_normal((1, t.size)))[0]

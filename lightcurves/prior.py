@@ -101,6 +101,7 @@ from astropy.timeseries import LombScargle
 from scipy import stats
 from scipy.optimize import least_squares
 
+from lightcurves.cadence import ou_paths
 from lightcurves.clean import WindowCleanResult, window_clean
 from lightcurves.harmonic_fits import design, harmonic_chi2, harmonic_set_chi2, sinusoids_fit
 from lightcurves.nufft import trig_sums
@@ -336,28 +337,16 @@ def _correlation_fits(t: np.ndarray, R: np.ndarray, lags: _LagBins) -> tuple[np.
     return np.where(seen, a[rows, i], 0.0), np.where(seen, lags.taus[i], 0.0)
 
 
-@numba.njit(cache=True)
-def _ou_draws(t: np.ndarray, tau: float, eps: np.ndarray) -> np.ndarray:
-    """Unit-variance Ornstein–Uhlenbeck paths of correlation time ``tau`` at sorted times ``t``, one per row of the
-    standard-normal ``eps`` (draws × N): ``x_{i+1} = φ x_i + sqrt(1 − φ²) ε_{i+1}``, ``φ = e^{−Δt/τ}`` (exact)."""
-    x = np.empty_like(eps)
-    for m in range(eps.shape[0]):
-        x[m, 0] = eps[m, 0]
-        for i in range(1, t.size):
-            phi = np.exp(-(t[i] - t[i - 1]) / tau)
-            x[m, i] = phi * x[m, i - 1] + np.sqrt(1.0 - phi * phi) * eps[m, i]
-    return x
-
-
-def _debiased_correlation(t: np.ndarray, w: np.ndarray, J: np.ndarray, lags: _LagBins, a0: float, tau0: float) -> tuple[float, float]:
-    """``(a, τ)`` whose residuals, after the weighted least-squares fit with weights ``w`` and weighted Jacobian ``J``,
+def _debiased_correlation(t: np.ndarray, w: np.ndarray, Q: np.ndarray, lags: _LagBins, a0: float, tau0: float) -> tuple[float, float]:
+    """``(a, τ)`` whose residuals, after the weighted least-squares fit with weights ``w`` and weighted Jacobian of
+    orthonormal basis ``Q``,
     the moments fit of :func:`_correlation_fit` reads as the observed ``(a0, τ0)``: a parametric-bootstrap bias correction.
 
     A fit removes the part of the noise its columns span — the trend and the harmonics are slow, so the residuals lose
     their long-lag correlation and the fitted ``τ`` came out short: on the calibration passes (OU τ = 3–20 s plus
     white noise) its median was 0.72 of the truth, 0.95 after this correction. ``_N_BOOT`` noise series in magnitudes —
     OU of variance ``a`` plus white noise of variance ``(1 − a)`` shared in proportion to ``1/w²`` — are drawn at
-    ``t`` (common random numbers, seeded by ``N``), fitted as the data were (projected off ``J`` in weighted units)
+    ``t`` (common random numbers, seeded by ``N``), fitted as the data were (projected off ``Q`` in weighted units)
     and their residuals' correlation fitted; then ``τ ← τ τ0/τ̂`` (geometric mean over the draws that show
     correlation) and ``a ← a + a0 − â``, three times. Left at ``(a0, τ0)`` when fewer than half the draws show
     correlation (nothing to calibrate against).
@@ -367,10 +356,9 @@ def _debiased_correlation(t: np.ndarray, w: np.ndarray, J: np.ndarray, lags: _La
     rng = np.random.default_rng(t.size)
     eps_ou, eps_w = rng.standard_normal((2, _N_BOOT, t.size))
     eps_w /= w * np.sqrt(np.mean(w**-2.0))
-    Q, _ = np.linalg.qr(J)
     a, tau = a0, tau0
     for _ in range(3):
-        e = (np.sqrt(a) * _ou_draws(t, tau, eps_ou) + np.sqrt(1.0 - a) * eps_w) * w
+        e = (np.sqrt(a) * ou_paths(t, tau, eps_ou) + np.sqrt(1.0 - a) * eps_w) * w
         r = (e - (e @ Q) @ Q.T) / w
         a_m, tau_m = _correlation_fits(t, r, lags)
         seen = tau_m > 0.0
@@ -699,9 +687,8 @@ class _WeightedNoise:
     def of(cls, fit: _Fit) -> _WeightedNoise:
         s, (a, tau) = fit.s, fit.correlation
         unit = cls(s.t, s.w, a, tau, (1.0 - a) / float(np.mean(s.w**-2.0)), 1.0)
-        Q, _ = np.linalg.qr(fit.jacobian)
         rw = fit.r * s.w
-        left = unit.c * s.n + a * float(s.w @ s.w) - float(np.trace(unit.gram(Q)))
+        left = unit.c * s.n + a * float(s.w @ s.w) - float(np.trace(unit.gram(fit.basis)))
         return replace(unit, v=float(rw @ rw) / max(left, 1e-300))
 
     def gram(self, U: np.ndarray) -> np.ndarray:
@@ -739,12 +726,17 @@ class _Fit:
         return np.column_stack([self.X, dm_df]) * self.s.w[:, None]
 
     @cached_property
+    def basis(self) -> np.ndarray:
+        """Orthonormal basis of :attr:`jacobian`'s columns (reduced QR)."""
+        return np.linalg.qr(self.jacobian)[0]
+
+    @cached_property
     def correlation(self) -> tuple[float, float]:
         """``(a, τ)`` of the residuals in magnitudes (:func:`_correlation_fit`), corrected for what the fit removed
         (:func:`_debiased_correlation`), computed once: red noise (the atmosphere, the target) is a process in
         magnitudes, whatever each sample's error bar."""
         a0, tau0 = _correlation_fit(self.s.t, self.r, self.s.lags)
-        return _debiased_correlation(self.s.t, self.s.w, self.jacobian, self.s.lags, a0, tau0)
+        return _debiased_correlation(self.s.t, self.s.w, self.basis, self.s.lags, a0, tau0)
 
     @cached_property
     def covariance(self) -> _WeightedNoise:
@@ -1101,13 +1093,11 @@ def _choose_fundamental(s: _Series, trial: np.ndarray, max_harmonics: int) -> tu
                 f"(periodogram peaks, their window aliases, f/2, f/3, 2f); runner-up ΔBIC {delta_bic:.1f}" if delta_bic is not None else
                 f"a {K}-harmonic fit at {f_fit:.6g} Hz")
     fit = _Fit.at(s, f_fit, K)
-    # BIC holds on white residuals; on red ones a sub-harmonic must earn its harmonics against the noise
-    fit, why = _no_empty_subharmonic(s, fit, max_harmonics) if fit.correlation[1] > 0.0 else (fit, "")
-    if why:
-        return s, fit, None, s2, f"{describe}; {why}"
-    f_fit = fit.f
+    if fit.correlation[1] > 0.0:  # BIC holds on white residuals; on red ones a sub-harmonic must earn its harmonics
+        fit, why = _no_empty_subharmonic(s, fit, max_harmonics)
+        return (s, fit, None, s2, f"{describe}; {why}") if why else (s, fit, delta_bic, s2, describe)
     # the F-test needs white residuals: correlated noise, or a shape the fit misses, makes any extra sinusoid "significant"
-    p = _odd_harmonic_test(s, f_fit, K) if fit.correlation[1] == 0.0 else None
+    p = _odd_harmonic_test(s, f_fit, K)
     if p is not None and p < _ODD_ALPHA:
         Kg = _harmonics_allowed(s, 0.5 * f_fit, max_harmonics)
         g = s.refine(0.5 * f_fit, min(2 * K, Kg), 0.05 / s.T)

@@ -4,13 +4,13 @@ nested harmonic fits, lag bins and the Ornstein–Uhlenbeck lag sums."""
 import numpy as np
 import pytest
 
-from lightcurves.cadence import red_noise, satellite_times, survey_times
+from lightcurves.cadence import ou_paths, red_noise, satellite_times, survey_times
 from lightcurves.harmonic_fits import design, harmonic_chi2, harmonic_set_chi2, sinusoids_fit
 from lightcurves.nufft import trig_sums
 from lightcurves.phasors import cis
 from astropy.timeseries import LombScargle
 
-from lightcurves.prior import _correlation_fit, _lag_products, _LagBins, _ou_apply, _ou_draws, _ou_lags, _red_spectrum, _sinusoid_fits
+from lightcurves.prior import _correlation_fit, _lag_products, _LagBins, _ou_apply, _ou_lags, _red_spectrum, _sinusoid_fits
 
 
 def test_phasors_are_cos_and_sin_to_the_last_bits():
@@ -233,12 +233,12 @@ def test_batched_sinusoid_fits_are_astropys(errors):
 
 def test_ou_kernel_product_is_the_dense_matrix_product():
     """``_ou_apply`` (two recursions along sorted times) equals ``K U`` with the dense ``K_ij = e^{−|t_i − t_j|/τ}``,
-    and an OU draw of ``_ou_draws`` has the kernel's lag-one correlation."""
+    and an OU path of ``ou_paths`` has the kernel's lag-one correlation."""
     rng = np.random.default_rng(4)
     t = np.sort(rng.uniform(0.0, 300.0, 400))
     U = rng.normal(size=(t.size, 3))
     K = np.exp(-np.abs(t[:, None] - t[None, :]) / 7.0)
     np.testing.assert_allclose(_ou_apply(t, U, 7.0), K @ U, rtol=1e-10, atol=1e-10)
     te = np.arange(0.0, 20000.0, 1.0)
-    x = _ou_draws(te, 5.0, rng.standard_normal((1, te.size)))[0]
+    x = ou_paths(te, 5.0, rng.standard_normal((1, te.size)))[0]
     assert abs(np.mean(x[1:] * x[:-1]) - np.exp(-1 / 5.0)) < 0.03 and abs(np.var(x) - 1.0) < 0.08
