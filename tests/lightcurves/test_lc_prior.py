@@ -94,3 +94,35 @@ def test_imposed_maxima_per_rotation():
 def test_bad_series_are_rejected(t, y, match):
     with pytest.raises(BadSeries, match=match):
         extract_spin_prior(t, y)
+
+
+def test_synodic_term_covers_the_offset_of_an_unknown_pole_like_a_one_sigma():
+    """The synodic term of the 1-σ (the Sun–observer bisector's turning rate) against the offset it stands for: the
+    rate at which the bisector turns *about the spin axis* (its azimuth in the plane normal to the pole), computed
+    here from first principles for 4000 isotropic poles. For a pole nobody knows, the offset falls within 1× the
+    term in 63 % and within 2× in 93 % of cases, inside the 60–76 % and 90–98 % bands of a calibrated 1-σ (half the
+    term would cover 25 % within 1×; twice it, 93 %)."""
+    t = np.arange(0.0, 600.0, 1.0)
+    rate_b = 2e-4  # rad/s, the bisector's turning rate (a GPS-like orbit seen from the ground)
+    tilt = 0.3  # the bisector's path is tilted out of a great circle and the phase angle drifts: a general geometry
+    b = np.column_stack([np.cos(rate_b * t), np.sin(rate_b * t), tilt * np.sin(0.5 * rate_b * t)])
+    b /= np.linalg.norm(b, axis=1, keepdims=True)
+    half_phase = 0.4 + 1e-4 * t
+    normal = np.cross(b, [0.0, 0.0, 1.0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    sun = np.cos(half_phase)[:, None] * b + np.sin(half_phase)[:, None] * normal
+    observer = np.cos(half_phase)[:, None] * b - np.sin(half_phase)[:, None] * normal
+    rng = np.random.default_rng(5)
+    y = 10.0 + 0.3 * np.cos(2 * np.pi * t / 60.0) + rng.normal(0, 0.02, t.size)
+    term = extract_spin_prior(t, y, np.full(t.size, 0.02), sun_dir=sun, observer_dir=observer).rate_sigma_synodic_rad_s
+    ratios = []
+    for pole in rng.normal(size=(4000, 3)):
+        pole /= np.linalg.norm(pole)
+        e1 = np.cross(pole, [0.3, -0.5, 0.8])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(pole, e1)
+        azimuth = np.unwrap(np.arctan2(b @ e2, b @ e1))
+        ratios.append(abs(np.polyfit(t, azimuth, 1)[0]) / term)
+    ratios = np.array(ratios)
+    assert 0.60 <= np.mean(ratios < 1.0) <= 0.76
+    assert 0.90 <= np.mean(ratios < 2.0) <= 0.98
