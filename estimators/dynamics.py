@@ -19,9 +19,10 @@ Models
 
 The relative model and its RK4 loop are compiled with numba: the model is a
 few dozen 3-vector operations, where numpy's fixed cost of about a microsecond
-per small-array operation would dominate. Compiled, one evaluation inside the
-RK4 loop costs about 1.4 µs and 30 000 steps about 0.17 s
-(``benchmarks/RESULTS.md``). It is the only implementation (no numpy twin).
+per small-array operation would dominate. Compiled, on tuples rather than
+small arrays (the note before :func:`get3`), one evaluation inside the RK4 loop
+costs about 0.1 µs and 30 000 steps about 0.012 s (``benchmarks/RESULTS.md``).
+It is the only implementation (no numpy twin).
 
 References
 ----------
@@ -189,45 +190,94 @@ def relative_state(target: np.ndarray, servicer: np.ndarray, k) -> np.ndarray:
     return np.concatenate([q_TS, w_ST, r, v, kk], axis=-1)
 
 
-@numba.njit(cache=True, fastmath=False)
+# The compiled dynamics work on tuples: numba keeps them in registers, where every small array costs a heap allocation
+# and every array view (``z[W_ST_T]``) reference counting that the compiled code keeps (~10 ns each, more than the
+# arithmetic). With arrays and views :func:`joint_rhs` took 1.5 µs, with tuples 0.1 µs. Every helper sums in the order
+# the array code did (``a @ v`` over the columns in turn), so the numbers are the same to the last bit. Divisions follow
+# numpy (``x/0 → inf``, as that code's array expressions did): Python's zero check made each call ~50 ns slower.
+
+
+@numba.njit(cache=True)
+def get3(a, block, at=0):
+    """``a[at + block]`` of a 3-long block (a slice of :mod:`estimators.state`) as a tuple."""
+    i = at + block.start
+    return (a[i], a[i + 1], a[i + 2])
+
+
+@numba.njit(cache=True)
+def get4(a, block, at=0):
+    """``a[at + block]`` of a 4-long block (a quaternion) as a tuple."""
+    i = at + block.start
+    return (a[i], a[i + 1], a[i + 2], a[i + 3])
+
+
+@numba.njit(cache=True)
+def put3(a, block, v, at=0):
+    """``a[at + block] = v`` for a 3-long block and a 3-vector ``v``."""
+    i = at + block.start
+    a[i], a[i + 1], a[i + 2] = v[0], v[1], v[2]
+
+
+@numba.njit(cache=True)
 def cross3(a, b):
-    """``a × b`` of two 3-vectors, compiled (for numba code elsewhere in ``estimators``)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    """``a × b`` of two 3-vectors, as a tuple."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 @numba.njit(cache=True)
 def mat_vec(a, v):
-    """``a @ v`` for a small matrix, by loops: numba's ``@`` calls BLAS, whose per-call overhead
-    (~0.1 µs) exceeds the work of a 3×3 product (halves :func:`joint_rhs`)."""
-    out = np.zeros(a.shape[0])
-    for i in range(a.shape[0]):
-        for k in range(a.shape[1]):
-            out[i] += a[i, k] * v[k]
-    return out
+    """``a @ v`` of a 3×3 matrix (nested tuples, by rows) and a 3-vector, as a tuple."""
+    return (
+        a[0][0] * v[0] + a[0][1] * v[1] + a[0][2] * v[2],
+        a[1][0] * v[0] + a[1][1] * v[1] + a[1][2] * v[2],
+        a[2][0] * v[0] + a[2][1] * v[1] + a[2][2] * v[2],
+    )
 
 
 @numba.njit(cache=True)
-def mat_mat(a, b):
-    """``a @ b`` for small matrices, by loops (see :func:`mat_vec`)."""
-    out = np.zeros((a.shape[0], b.shape[1]))
-    for i in range(a.shape[0]):
-        for k in range(a.shape[1]):
-            for j in range(b.shape[1]):
-                out[i, j] += a[i, k] * b[k, j]
-    return out
+def mat_t_vec(a, v):
+    """``aᵀ @ v`` of a 3×3 matrix (nested tuples, by rows) and a 3-vector, as a tuple."""
+    return (
+        a[0][0] * v[0] + a[1][0] * v[1] + a[2][0] * v[2],
+        a[0][1] * v[0] + a[1][1] * v[1] + a[2][1] * v[2],
+        a[0][2] * v[0] + a[1][2] * v[1] + a[2][2] * v[2],
+    )
+
+
+@numba.njit(cache=True, error_model="numpy")
+def euler_rate(w, J):
+    """``ω̇ = −ω × (J ω) / J``: Euler's torque-free equations for the principal inertia ``J`` (3-vectors), as a tuple."""
+    c = cross3(w, (J[0] * w[0], J[1] * w[1], J[2] * w[2]))
+    return (-c[0] / J[0], -c[1] / J[1], -c[2] / J[2])
 
 
 @numba.njit(cache=True)
 def quat_to_dcm_nb(q):
-    """``R(q)`` of one quaternion, compiled twin of :func:`estimators.attitude.quat_to_dcm` for numba code."""
+    """``R(q)`` of one quaternion as nested tuples (rows), compiled twin of :func:`estimators.attitude.quat_to_dcm` for numba code."""
     q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    return np.array(  # nested tuples: numba builds the array ~9× faster than from nested lists
-        (
-            (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)),
-            (2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)),
-            (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3),
-        )
+    return (
+        (q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)),
+        (2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)),
+        (2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3),
     )
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _absolute_rhs_into(s, J, mu, out, at):
+    """:func:`absolute_rhs_nb` of ``s[at : at + 13]`` written into ``out[at : at + 13]``."""
+    r = get3(s, R_I, at)
+    q = get4(s, Q_IB, at)
+    w = get3(s, W_B, at)
+    rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
+    put3(out, R_I, get3(s, V_I, at), at)
+    put3(out, V_I, (-mu * r[0] / rn**3, -mu * r[1] / rn**3, -mu * r[2] / rn**3), at)
+    # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of Renis et al.)
+    i = at + Q_IB.start
+    out[i] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
+    out[i + 1] = 0.5 * (q[0] * w[0] - q[3] * w[1] + q[2] * w[2])
+    out[i + 2] = 0.5 * (q[3] * w[0] + q[0] * w[1] - q[1] * w[2])
+    out[i + 3] = 0.5 * (-q[2] * w[0] + q[1] * w[1] + q[0] * w[2])
+    put3(out, W_B, euler_rate(w, J), at)
 
 
 @numba.njit(cache=True)
@@ -238,19 +288,56 @@ def absolute_rhs_nb(s, J, mu):
     integrations call it tens of thousands of times, and the relative model uses it for the servicer.
     """
     out = np.empty(N_ABSOLUTE)
-    r = s[R_I]
-    q = s[Q_IB]
-    w = s[W_B]
-    rn = np.sqrt(r[0] ** 2 + r[1] ** 2 + r[2] ** 2)
-    out[R_I] = s[V_I]
-    out[V_I] = -mu * r / rn**3
-    # q̇ = ½ q ⊗ [0, ω] = ½ Q(q) ω (eq. 3 of Renis et al.)
-    out[6] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2])
-    out[7] = 0.5 * (q[0] * w[0] - q[3] * w[1] + q[2] * w[2])
-    out[8] = 0.5 * (q[3] * w[0] + q[0] * w[1] - q[1] * w[2])
-    out[9] = 0.5 * (-q[2] * w[0] + q[1] * w[1] + q[0] * w[2])
-    out[W_B] = -cross3(w, J * w) / J
+    _absolute_rhs_into(s, J, mu, out, 0)
     return out
+
+
+@numba.njit(cache=True, error_model="numpy")
+def joint_rhs_into(z, J_S, mu, out):
+    """:func:`joint_rhs` written into ``out`` (28): what the RK4 loops call, on buffers they reuse."""
+    X, S = JOINT_X.start, JOINT_S.start
+    q = get4(z, Q_TS, X)
+    w = get3(z, W_ST_T, X)  # ω_ST_T, rate of S relative to T, in T
+    r = get3(z, R_ST_T, X)
+    v = get3(z, V_ST_T, X)
+    JT = (np.exp(z[X + K.start]), 1.0, np.exp(-z[X + K.start + 1]))
+
+    r_SI = get3(z, R_I, S)
+    R_TS = quat_to_dcm_nb(q)
+    R_IS = quat_to_dcm_nb(get4(z, Q_IB, S))
+    # servicer: Kepler + Euler
+    rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
+    _absolute_rhs_into(z, J_S, mu, out, S)
+    dw_S = get3(out, W_B, S)
+
+    # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
+    i = X + Q_TS.start
+    out[i] = 0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3])
+    out[i + 1] = 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2])
+    out[i + 2] = 0.5 * (w[1] * q[0] + w[2] * q[1] - w[0] * q[3])
+    out[i + 3] = 0.5 * (w[2] * q[0] + w[0] * q[2] - w[1] * q[1])
+
+    w_S_T = mat_vec(R_TS, get3(z, W_B, S))
+    w_T = (w_S_T[0] - w[0], w_S_T[1] - w[1], w_S_T[2] - w[2])  # eq. 1 solved for the target's own rate
+    dw_T = euler_rate(w_T, JT)  # eq. 6, torque-free
+    # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
+    a = cross3(w, w_S_T)
+    b = mat_vec(R_TS, dw_S)
+    put3(out, W_ST_T, (a[0] + b[0] - dw_T[0], a[1] + b[1] - dw_T[1], a[2] + b[2] - dw_T[2]), X)
+
+    # translation, eqs 8–15 via the transport theorem in the rotating T frame
+    r_S_T = mat_vec(R_TS, mat_t_vec(R_IS, r_SI))  # servicer position from Earth's centre, in T
+    r_T_T = (r_S_T[0] - r[0], r_S_T[1] - r[1], r_S_T[2] - r[2])
+    rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
+    put3(out, R_ST_T, v, X)
+    c1 = cross3(w_T, v)
+    c2 = cross3(dw_T, r)
+    c3 = cross3(w_T, cross3(w_T, r))
+    i = X + V_ST_T.start
+    for j in range(3):
+        a_I = -mu * r_S_T[j] / rs**3 + mu * r_T_T[j] / rt**3  # eqs 12–14
+        out[i + j] = a_I - 2.0 * c1[j] - c2[j] - c3[j]
+    out[X + K.start] = out[X + K.start + 1] = 0.0
 
 
 @numba.njit(cache=True)
@@ -261,47 +348,31 @@ def joint_rhs(z, J_S, mu):
     is the servicer's own absolute state (its AODS), propagated alongside so
     the relative model always sees the servicer at the right instant.
     """
-    x = z[JOINT_X]
-    s = z[JOINT_S]
     out = np.empty(N_STATE + N_ABSOLUTE)
-    q = x[Q_TS]
-    w = x[W_ST_T]  # ω_ST_T, rate of S relative to T, in T
-    r = x[R_ST_T]
-    v = x[V_ST_T]
-    k1, k2 = x[K]
-    JT = np.array([np.exp(k1), 1.0, np.exp(-k2)])
-
-    r_SI = s[R_I]
-    q_IS = s[Q_IB]
-    w_S = s[W_B]
-    R_TS = quat_to_dcm_nb(q)
-    R_IS = quat_to_dcm_nb(q_IS)
-    # servicer: Kepler + Euler
-    rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
-    out[JOINT_S] = absolute_rhs_nb(s, J_S, mu)
-    dw_S = out[JOINT_S][W_B]
-
-    # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
-    out[0] = 0.5 * (-w[0] * q[1] - w[1] * q[2] - w[2] * q[3])
-    out[1] = 0.5 * (w[0] * q[0] + w[1] * q[3] - w[2] * q[2])
-    out[2] = 0.5 * (w[1] * q[0] + w[2] * q[1] - w[0] * q[3])
-    out[3] = 0.5 * (w[2] * q[0] + w[0] * q[2] - w[1] * q[1])
-
-    w_S_T = mat_vec(R_TS, w_S)
-    w_T = w_S_T - w  # eq. 1 solved for the target's own rate
-    dw_T = -cross3(w_T, JT * w_T) / JT  # eq. 6, torque-free
-    # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
-    out[W_ST_T] = cross3(w, w_S_T) + mat_vec(R_TS, dw_S) - dw_T
-
-    # translation, eqs 8–15 via the transport theorem in the rotating T frame
-    r_S_T = mat_vec(R_TS, mat_vec(R_IS.T, r_SI))  # servicer position from Earth's centre, in T
-    r_T_T = r_S_T - r
-    rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
-    a_I_T = -mu * r_S_T / rs**3 + mu * r_T_T / rt**3  # eqs 12–14
-    out[R_ST_T] = v
-    out[V_ST_T] = a_I_T - 2.0 * cross3(w_T, v) - cross3(dw_T, r) - cross3(w_T, cross3(w_T, r))
-    out[K] = 0.0
+    joint_rhs_into(z, J_S, mu, out)
     return out
+
+
+@numba.njit(cache=True)
+def rk4_joint_step(z, J_S, mu, dt, work):
+    """One RK4 step of :func:`joint_rhs` from ``z`` (28), in place; ``work`` (5, 28): scratch for the stages.
+
+    Element by element in the order of ``z + dt/6 (k1 + 2 k2 + 2 k3 + k4)``: the numbers of the array
+    expressions, without the allocation of each.
+    """
+    k1, k2, k3, k4, zt = work[0], work[1], work[2], work[3], work[4]
+    joint_rhs_into(z, J_S, mu, k1)
+    for i in range(z.size):
+        zt[i] = z[i] + 0.5 * dt * k1[i]
+    joint_rhs_into(zt, J_S, mu, k2)
+    for i in range(z.size):
+        zt[i] = z[i] + 0.5 * dt * k2[i]
+    joint_rhs_into(zt, J_S, mu, k3)
+    for i in range(z.size):
+        zt[i] = z[i] + dt * k3[i]
+    joint_rhs_into(zt, J_S, mu, k4)
+    for i in range(z.size):
+        z[i] = z[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
@@ -345,17 +416,14 @@ def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
     xs = np.empty((n_out, N_STATE))
     ss = np.empty((n_out, N_ABSOLUTE))
     z = np.empty(N_STATE + N_ABSOLUTE)
+    work = np.empty((5, N_STATE + N_ABSOLUTE))
     z[JOINT_X] = x0
     z[JOINT_S] = s0
     xs[0] = x0
     ss[0] = s0
     j = 1
     for i in range(n_steps):
-        k1 = joint_rhs(z, J_S, mu)
-        k2 = joint_rhs(z + 0.5 * dt * k1, J_S, mu)
-        k3 = joint_rhs(z + 0.5 * dt * k2, J_S, mu)
-        k4 = joint_rhs(z + dt * k3, J_S, mu)
-        z = z + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        rk4_joint_step(z, J_S, mu, dt, work)
         if (i + 1) % stride == 0:
             xs[j] = z[JOINT_X]
             ss[j] = z[JOINT_S]
