@@ -134,7 +134,7 @@ def test_nees_matches_an_exact_kalman_filter_on_the_same_noise(consistency_runs,
 
 #: Runs, duration (s) and statistics window of the default-P_0 check (the benchmark's 300 s, shortened:
 #: every failure measured so far shows by 120 s).
-N_DEFAULT, DURATION_DEFAULT_S = 20, 120.0
+N_DEFAULT, DURATION_DEFAULT_S = 30, 120.0
 
 
 @pytest.fixture(scope="module")
