@@ -40,8 +40,8 @@ from astropy.timeseries import LombScargle
 from scipy import special, stats
 
 from lightcurves import extract_spin_prior
-from lightcurves.harmonic_fits import design
 from lightcurves.cadence import DAY_S, SHAPES, YEAR_S, curve, heteroscedastic_noise, red_noise, satellite_times, survey_times
+from lightcurves.harmonic_fits import design, frequency_derivative
 
 REPORT_SEED = 2026
 N_SURVEY = 350
@@ -196,9 +196,7 @@ def _precision_ceiling(c) -> float:
         if best is None or bic < best[0]:
             best = (bic, K, X, coef)
     _, K, X, coef = best
-    k = np.arange(1, K + 1)
-    dm_df = 2 * np.pi * tc * (X[:, 3 + K :] @ (-k * coef[3 : 3 + K]) + X[:, 3 : 3 + K] @ (k * coef[3 + K :]))
-    J = np.column_stack([X, dm_df]) * w[:, None]
+    J = np.column_stack([X, frequency_derivative(tc, X, coef, K)]) * w[:, None]
     sigma_f = np.sqrt(np.linalg.pinv(J.T @ J)[-1, -1])
     return float(special.erf(1e-3 * c["f_true"] / (np.sqrt(2) * sigma_f)))
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from lightcurves.phasors import cis
 
-__all__ = ["design", "harmonic_chi2", "harmonic_set_chi2", "sinusoids_fit"]
+__all__ = ["design", "frequency_derivative", "harmonic_chi2", "harmonic_set_chi2", "sinusoids_fit"]
 
 @numba.njit(cache=True, fastmath={"reassoc", "contract"})
 def _sums(Er, Ei, W, WV, K, T, Q):
@@ -241,6 +241,16 @@ def design(tc: np.ndarray, V: np.ndarray, f: float, K: int) -> np.ndarray:
     """Columns ``V`` (trend), ``cos(2πkft)`` for k = 1 … K, ``sin(2πkft)`` for k = 1 … K (harmonics as powers of
     one phasor: ``k`` products lose ~k·1e-16)."""
     return _design(*_contiguous(tc, V), float(f), int(K))
+
+
+def frequency_derivative(tc: np.ndarray, X: np.ndarray, coef: np.ndarray, K: int) -> np.ndarray:
+    """``∂m/∂f`` of the model ``m = X coef`` with ``X`` from :func:`design` (trend, then ``cos 2πkft`` and
+    ``sin 2πkft`` for k = 1 … K): ``2π t Σ_k k (b_k cos 2πkft − a_k sin 2πkft)`` — the frequency's column of the
+    fit's Jacobian."""
+    q = X.shape[1] - 2 * K
+    k = np.arange(1, K + 1)
+    cos_k, sin_k = X[:, q : q + K], X[:, q + K :]
+    return 2.0 * np.pi * tc * (sin_k @ (-k * coef[q : q + K]) + cos_k @ (k * coef[q + K :]))
 
 
 @numba.njit(cache=True)

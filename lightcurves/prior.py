@@ -106,7 +106,7 @@ from threadpoolctl import ThreadpoolController
 
 from lightcurves.cadence import ou_paths
 from lightcurves.clean import WindowCleanResult, window_clean
-from lightcurves.harmonic_fits import design, harmonic_chi2, harmonic_set_chi2, sinusoids_fit
+from lightcurves.harmonic_fits import design, frequency_derivative, harmonic_chi2, harmonic_set_chi2, sinusoids_fit
 from lightcurves.nufft import trig_sums
 from lightcurves.phasors import cis
 from lightcurves.samples import check_samples
@@ -727,9 +727,7 @@ class _Fit:
     @cached_property
     def jacobian(self) -> np.ndarray:
         """Weighted Jacobian of the model in its linear coefficients and ``f``: ``[X, ∂m/∂f] · w``."""
-        K, coef, k = self.K, self.coef, np.arange(1, self.K + 1)
-        cos_k, sin_k = self.X[:, 3 : K + 3], self.X[:, K + 3 :]  # cos 2πkft, sin 2πkft
-        dm_df = 2.0 * np.pi * self.s.tc * (sin_k @ (-k * coef[3 : K + 3]) + cos_k @ (k * coef[K + 3 :]))
+        dm_df = frequency_derivative(self.s.tc, self.X, self.coef, self.K)
         return np.column_stack([self.X, dm_df]) * self.s.w[:, None]
 
     @cached_property
