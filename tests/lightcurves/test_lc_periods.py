@@ -65,6 +65,21 @@ def test_sparse_multiseason_fundamental_recovered(shape, period_d, n, seed):
     assert p.frequency_hz * P == pytest.approx(1.0, abs=1e-3)
 
 
+def test_strongest_harmonic_above_the_band_still_gives_the_fundamental():
+    """A double-peaked 2.6 h curve on survey cadence, searched up to 1/(2 h): its strongest harmonic (1/1.3 h) lies
+    above the band. The band bounds the rotation frequency, not its harmonics; with harmonics capped at ``nu_max`` and
+    no candidates from above it, 3 of these 10 curves were ranked at an alias (f × 0.39, 1.04, 1.11), one of them
+    significant."""
+    P = 2.6 * 3600.0
+    for seed in range(10):
+        rng = np.random.default_rng(seed)
+        t = survey_times(rng, 150)
+        y = 12 + curve("double", t / P, 0.5, rng) + rng.normal(0, 0.02, t.size)
+        p = extract_spin_prior(t, y, np.full(t.size, 0.02), nu_max=1 / 7200.0)
+        assert p.best_frequency_hz * P == pytest.approx(1.0, abs=1e-3), seed
+        assert not p.significant or p.frequency_hz == p.best_frequency_hz
+
+
 def test_significance_fits_the_trend_jointly_on_sparse_seasons():
     """40 visits over five seasons of a 3.3 d sinusoid (SNR 2.4 per visit): the quadratic over the seasons is far from
     orthogonal to the sinusoid on these times, and removed first it took part of the periodogram peak (power 0.56
