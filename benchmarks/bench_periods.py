@@ -203,11 +203,10 @@ def _by_points(cases, answers_by_method, ceiling: np.ndarray) -> list[str]:
     likelihood prefers the wrong period lcnav ranked best (another peak, more than half a resolution element off)."""
     n_pts = np.array([c["t"].size for c in cases])
     T = np.array([c["t"][-1] - c["t"][0] for c in cases])
-    right = {name: np.array([_classify(f, c["f_true"], c["t"][-1] - c["t"][0], c["windows"]) == "right" for c, f, _ in answers_by_method[name]])
+    right = {name: np.array([_classify(f, c["f_true"], span, c["windows"]) == "right" for (c, f, _), span in zip(answers_by_method[name], T, strict=True)])
              for name in ("lcnav", "lcnav best-ranked (significant or not)", "LS nterms=1")}
-    best = np.array([f for _, f, _ in answers_by_method["lcnav best-ranked (significant or not)"]])
-    f_true = np.array([c["f_true"] for c in cases])
-    wrong_preferred = np.array([abs(b - f) > 0.5 / span and _likelihood_prefers(c, b) for c, b, f, span in zip(cases, best, f_true, T, strict=True)])
+    best = [f for _, f, _ in answers_by_method["lcnav best-ranked (significant or not)"]]
+    wrong_preferred = np.array([abs(b - c["f_true"]) > 0.5 / span and _likelihood_prefers(c, b) for c, b, span in zip(cases, best, T, strict=True)])
     rows = []
     for lo, hi in zip(POINT_BINS[:-1], POINT_BINS[1:], strict=True):
         m = (n_pts >= lo) & (n_pts < hi)
