@@ -127,7 +127,8 @@ _PEAK_FLOOR = 0.2  #: periodogram peaks below this fraction of the highest are n
 _N_KEEP = 12  #: trial frequencies kept after the cheap 1–2-harmonic pruning
 _K_SCORE = 6  #: most harmonics when ranking trial frequencies (the winner's K goes up to max_harmonics)
 _WINDOW_FLOOR = 0.2  #: |W| a window peak needs (relative to W(0) = 1) to make aliases
-_TRIAL_MULTIPLES = (1.0, 0.5, 1.0 / 3.0, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
+_SUBHARMONICS = (0.5, 1.0 / 3.0)  #: f/2, f/3
+_TRIAL_MULTIPLES = (1.0, *_SUBHARMONICS, 2.0)  #: each base frequency, its sub-harmonics and harmonic 2
 _N_ABOVE = 3  #: periodogram peaks above the band (irregular sampling) whose sub-harmonics are candidates
 _OUTLIER_Z = 3.5  #: samples this many robust σ from the best-ranked fit are left out (Gaussian noise: 5e-4 of them)
 _ODD_ALPHA = 1e-2  #: level at which harmonics of f/2 (f/3) that f lacks make the sub-harmonic the fundamental
@@ -783,7 +784,7 @@ def _trial_frequencies(s: _Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Step 3: ``(trial, ipk, peaks)`` — periodogram peaks, their window aliases, sub-harmonics and harmonic 2; on
     irregular sampling also the sub-harmonics of the strongest peaks in ``(nu_max, 2 nu_max]``, when harmonics may
     reach ``2 nu_max`` (:attr:`_Series.harmonic_top`). On the
-    benchmark's survey curves (development seeds 5 and 6, 600 curves) those, with harmonics not bounded by the band,
+    benchmark's survey curves (development seeds 5 and 6, 600 curves) those, with harmonics up to ``harmonic_top``,
     made 10 more curves right (466 → 476): double-peaked and eclipsing curves of periods just above ``1/nu_max``
     had been ranked at aliases of their strongest harmonic."""
     df = s.freq[1] - s.freq[0]
@@ -801,7 +802,7 @@ def _trial_frequencies(s: _Series) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         above = s.nu_max + 2.0 * df * np.arange(1, int(0.5 * s.nu_max / df) + 1)
         p_above = _Periodogram.of(s.t, s.dy, above).power(s.yd)
         ia = _local_maxima(p_above, _N_ABOVE, _SAMPLES_PER_PEAK // 2)
-        multiples.append(np.outer(above[ia[p_above[ia] >= _PEAK_FLOOR * s.power[ipk[0]]]], (0.5, 1.0 / 3.0)).ravel())
+        multiples.append(np.outer(above[ia[p_above[ia] >= _PEAK_FLOOR * s.power[ipk[0]]]], _SUBHARMONICS).ravel())
     trial = np.unique(np.round(np.concatenate(multiples) / (0.1 * df)) * 0.1 * df)
     return trial[(trial >= s.nu_min) & (trial <= s.nu_max)], ipk, peaks
 
