@@ -1,0 +1,20 @@
+"""Light-curve inversion: the spin state (pole, sidereal period, phase, body spin axis) from light curves.
+
+One light curve gives a (synodic) rate; several, seen under changing Sun–observer geometry, give the
+pole — the angular-momentum direction, so the sense too — and the sidereal period. This subpackage
+is a pure library (arrays in, result objects out; no files, no progress bars):
+
+* :mod:`~lightcurves.inversion.data` — :class:`InversionCurve`, one light curve with its per-sample
+  geometry (Sun and observer directions in the inertial frame I), the input of everything here.
+
+References
+----------
+.. [1] Kaasalainen & Torppa, *Optimization methods for asteroid lightcurve inversion I: shape
+   determination*, Icarus 153 (2001).
+.. [2] Kaasalainen, Torppa & Muinonen, *Optimization methods for asteroid lightcurve inversion II:
+   the complete inverse problem*, Icarus 153 (2001).
+"""
+
+from lightcurves.inversion.data import InversionCurve
+
+__all__ = ["InversionCurve"]
