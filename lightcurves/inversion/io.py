@@ -30,6 +30,7 @@ Bad input raises :class:`~lightcurves.samples.BadSeries` (a ``ValueError``) with
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import astropy.units as u
@@ -38,6 +39,7 @@ from astropy.constants import c as _c
 from astropy.io.ascii import convert_numpy
 from astropy.table import Table
 from astropy.time import Time
+from erfa import ErfaWarning
 
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.frames import I_to_ecliptic, ecliptic_to_I
@@ -53,6 +55,8 @@ _C_M_S = _c.to_value(u.m / u.s)
 _TIME_SCALES = ("utc", "tt", "tdb")
 #: σ of a flux from σ of a magnitude: σ_F = 0.4 ln 10 · F · σ_m (first-order propagation of F = F0 10^(−0.4 m)).
 _MAG_TO_FLUX_SIGMA = 0.4 * np.log(10.0)
+#: Julian dates accepted (1858-11-16 to 2132-08-31): photographic-era photometry to planned nights; ERFA refuses far beyond.
+_JD_RANGE = (2_400_000.0, 2_500_000.0)
 #: Suffixes read as DAMIT text by :func:`read_inversion_curves`.
 _DAMIT_SUFFIXES = (".txt", ".lcs", ".dat")
 
@@ -72,9 +76,12 @@ def _source(path_or_text) -> tuple[str, str]:
         raise BadSeries(f"{path.name}: byte {e.start} is not UTF-8: expected a text file") from None
 
 
-def _check_options(sigma_rel: float, time_scale: str) -> None:
+def _check_sigma_rel(sigma_rel: float) -> None:
     if not (np.isfinite(sigma_rel) and 0 < sigma_rel < 1):
         raise BadSeries(f"sigma_rel: {sigma_rel!r}: expected a relative 1-sigma within (0, 1)")
+
+
+def _check_time_scale(time_scale: str) -> None:
     if time_scale not in _TIME_SCALES:
         raise BadSeries(f"time_scale: {time_scale!r}: expected one of {', '.join(_TIME_SCALES)}")
 
@@ -128,8 +135,14 @@ def _curve_from_rows(rows: np.ndarray, calibrated: bool, *, where: str, line: li
     if np.any(b <= 0):
         k = int(np.flatnonzero(b <= 0)[0])
         raise BadSeries(f"{where} line {line[k]}: brightness {float(b[k])!r}: expected an intensity > 0")
-    emitted = Time(rows[:, 0], format="jd", scale=time_scale)
-    observed = (emitted + delta_au * (AU_M / _C_M_S) * u.s).utc  # undo the light-time correction
+    jd = rows[:, 0]
+    if np.any((jd < _JD_RANGE[0]) | (jd > _JD_RANGE[1])):
+        k = int(np.flatnonzero((jd < _JD_RANGE[0]) | (jd > _JD_RANGE[1]))[0])
+        raise BadSeries(f"{where} line {line[k]}: JD {float(jd[k])!r}: expected a Julian date within [{_JD_RANGE[0]:.0f}, {_JD_RANGE[1]:.0f}]")
+    with warnings.catch_warnings():  # UTC before 1960 is ERFA's "dubious year": such old photometry is read as given
+        warnings.simplefilter("ignore", ErfaWarning)
+        emitted = Time(jd, format="jd", scale=time_scale)
+        observed = (emitted + delta_au * (AU_M / _C_M_S) * u.s).utc  # undo the light-time correction
     epoch = observed[0]
     t_s = (observed - epoch).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
@@ -154,7 +167,8 @@ def read_damit(path_or_text, *, sigma_rel: float = DEFAULT_SIGMA_REL, time_scale
     announced or lines left over, a row other than 8 finite decimal numbers, a zero Sun or observer
     vector, a brightness ≤ 0, rows out of time order.
     """
-    _check_options(sigma_rel, time_scale)
+    _check_sigma_rel(sigma_rel)
+    _check_time_scale(time_scale)
     where, text = _source(path_or_text)
     lines = _Lines(where, text)
     _, (n_curves,) = lines.integers(1, "the number of light curves, one integer >= 1")
@@ -195,7 +209,7 @@ def damit_text(curves, *, time_scale: str = "utc") -> str:
     curves = list(curves)
     if not curves or not all(isinstance(c, InversionCurve) for c in curves):
         raise BadSeries(f"curves: {len(curves)} item(s): expected a non-empty list of InversionCurve")
-    _check_options(DEFAULT_SIGMA_REL, time_scale)
+    _check_time_scale(time_scale)
     out = [f"{len(curves)}"]
     for curve in curves:
         out.append(f"{len(curve)} {int(curve.calibrated)}")
@@ -283,10 +297,18 @@ def _csv_times(table: Table, where: str, time_format: str) -> Time:
     cells = [str(c).strip() for c in np.asarray(table["time"])]
     numeric = all(_DECIMAL.match(c) for c in cells)
     values = _decimals(table, "time", where) if numeric else cells
+    form = f"ISO 8601 UTC text or decimal {time_format} in every row, Julian dates within [{_JD_RANGE[0]:.0f}, {_JD_RANGE[1]:.0f}]"
     try:
-        return Time(values, format=time_format if numeric else "isot", scale="utc")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ErfaWarning)
+            times = Time(values, format=time_format if numeric else "isot", scale="utc")
     except ValueError:
-        raise BadSeries(f"{where} column 'time': {cells[0][:40]!r}...: expected ISO 8601 UTC text or decimal {time_format} in every row") from None
+        raise BadSeries(f"{where} column 'time': {cells[0][:40]!r}...: expected {form}") from None
+    outside = (times.jd < _JD_RANGE[0]) | (times.jd > _JD_RANGE[1])
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise BadSeries(f"{where} column 'time' row {k + 1}: {cells[k][:40]!r}: expected {form}")
+    return times
 
 
 def read_geometry_csv(path, *, frame: str = "ecliptic", time_format: str = "jd", calibrated: bool = False,
@@ -312,7 +334,7 @@ def read_geometry_csv(path, *, frame: str = "ecliptic", time_format: str = "jd",
     path = Path(path)
     if frame not in _FRAMES:
         raise BadSeries(f"frame: {frame!r}: expected one of {', '.join(_FRAMES)}")
-    _check_options(sigma_rel, "utc")
+    _check_sigma_rel(sigma_rel)
     table, where = _csv_cells(path), path.name
     times = _csv_times(table, where, time_format)
     vec = {key: np.column_stack([_decimals(table, c, where) for c in cols]) for key, cols in _VECTORS.items()}
