@@ -211,13 +211,16 @@ BAD_DAMIT = {
     "non-numeric": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 bright 1 0 0 0 0 1\n", "line 5: '2451545.1 bright 1 0 0 0 0 1': expected 8"),
     "nan": ("1\n3 0\n" + "2451545.0 nan 1 0 0 0 0 1\n" * 3, "line 3: '2451545.0 nan 1 0 0 0 0 1': expected 8 decimal"),
     "seven columns": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0\n" * 3, "line 3: '2451545.0 1 1 0 0 0 0': expected 8 decimal"),
-    "zero sun vector": ("1\n3 0\n2451545.0 1 0 0 0 0 0 1\n" + "2451545.1 1 1 0 0 0 0 1\n" * 2, "line 3: Sun vector (0, 0, 0): expected a non-zero vector"),
-    "zero observer vector": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 1 1 0 0 0 0 0\n", "line 5: observer vector (0, 0, 0): expected"),
+    "zero sun vector": ("1\n3 0\n2451545.0 1 0 0 0 0 0 1\n" + "2451545.1 1 1 0 0 0 0 1\n" * 2,
+                        "line 3: Sun vector of length 0 au: expected a vector from the object of length within [1e-09"),
+    "zero observer vector": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 1 1 0 0 0 0 0\n", "line 5: observer vector of length 0 au: expected"),
     "N = 0": ("1\n0 0\n", "line 2: '0 0': expected the header of curve 1 of 1: 'N FLAG', N >= 3"),
     "flag 2": ("1\n3 2\n" + "2451545.0 1 1 0 0 0 0 1\n" * 3, "line 2: '3 2': expected the header"),
     "negative brightness": ("1\n3 0\n" + "2451545.0 -1 1 0 0 0 0 1\n" * 3, "line 3: brightness -1.0: expected an intensity > 0"),
     "time order": ("1\n3 0\n2451545.2 1 1 0 0 0 0 1\n2451545.1 1 1 0 0 0 0 1\n2451545.3 1 1 0 0 0 0 1\n", "line 4: JD 2451545.1 before the previous"),
     "empty": ("\n\n", "end of text after line 0: expected the number of light curves"),
+    "tiny vectors": ("1\n3 1\n" + "2451545.0 1 1e-12 0 0 0 0 1\n" * 3, "line 3: Sun vector of length 1e-12 au: expected"),
+    "unicode digit": ("1\n3 \u00b2\n" + "2451545.0 1 1 0 0 0 0 1\n" * 3, "line 2: '3 \u00b2': expected the header"),
     "JD beyond ERFA": ("1\n3 0\n" + "99999999999 1 1 0 0 0 0 1\n" * 3, "line 3: JD 99999999999.0: expected a Julian date within [2400000, 2500000]"),
 }
 
@@ -313,7 +316,7 @@ _CSV_ROW = "{t},10.0,1,0,0,0,1,0"
 BAD_CSV = {
     "no geometry": ("time,mag\n" + "".join(f"{2460000.5 + k},10\n" for k in range(3)), "header ['time', 'mag']: expected columns time, mag or flux, sun_x"),
     "zero vector": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)) + "2460003.5,10,0,0,0,0,1,0\n",
-                    "columns sun_x..sun_z row 3: (0, 0, 0): expected a non-zero vector"),
+                    "columns sun_x..sun_z row 3: length 0 au: expected a vector from the object"),
     "text cell": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)) + "2460003.5,dim,1,0,0,0,1,0\n",
                   "column 'mag' row 3: 'dim': expected a decimal number"),
     "two rows": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)), "2 row(s): expected at least 3 samples"),
