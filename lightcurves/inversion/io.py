@@ -57,8 +57,8 @@ _TIME_SCALES = ("utc", "tt", "tdb")
 _MAG_TO_FLUX_SIGMA = 0.4 * np.log(10.0)
 #: Julian dates accepted (1858-11-16 to 2132-08-31): photographic-era photometry to planned nights; ERFA refuses far beyond.
 _JD_RANGE = (2_400_000.0, 2_500_000.0)
-#: Lengths of the object -> Sun and object -> observer vectors accepted, au (150 m to 10⁴ au: no under/overflow in (r Δ)²).
-_DISTANCE_AU = (1e-9, 1e4)
+#: Lengths of the object -> Sun and object -> observer vectors accepted, au (15 cm, a chaser close to its target, to 10⁴ au: no under/overflow in (r Δ)²).
+_DISTANCE_AU = (1e-12, 1e4)
 #: Suffixes read as DAMIT text by :func:`read_inversion_curves`.
 _DAMIT_SUFFIXES = (".txt", ".lcs", ".dat")
 
