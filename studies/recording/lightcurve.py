@@ -8,6 +8,8 @@ Entities (``sim_time`` = seconds since the first sample):
 ``/lightcurve/mag``, ``/mag_err``      the observed magnitudes and their 1-σ errors (up = fainter)
 ``/lightcurve/mag_true``               the noiseless magnitudes, when known (simulations)
 ``/lightcurve/geometry/<name>``        phase angle (deg), range (km), elevation (deg)
+                                       (each series cleared in the middle of every gap, :func:`gap_times`,
+                                       so the viewer breaks its line there instead of drawing across)
 ``/spectrum/<name>``                   ``dirty``, ``clean``, ``residual`` amplitude spectra and the
                                        ``window``: ``rr.BarChart`` over frequency in mHz
 ``/spectrum/summary``                  the extracted prior (JSON as a text document)
@@ -25,10 +27,32 @@ from pathlib import Path
 import numpy as np
 
 from studies.recording.blueprint import lightcurve_blueprint
-from studies.recording.writer import recording, send_scalars
+from studies.recording.writer import recording, send_scalars, set_sim_time
 
 #: Spectra of a WindowCLEAN result and where they live on it.
 SPECTRA = ("dirty", "clean", "residual", "window")
+#: A spacing of consecutive samples this many times their median is a gap (between passes or nights): for the uneven
+#: sampling of one pass (spacings roughly exponential) a spacing of 10 medians has a chance of e^-6.9 = 0.1 %.
+GAP_FACTOR = 10.0
+
+
+def gap_times(t_s) -> np.ndarray:
+    """The middles of the gaps of the sample times ``t_s`` (N,) s: spacings above :data:`GAP_FACTOR` times the median."""
+    t = np.asarray(t_s, dtype=float)
+    dt = np.diff(t)
+    if dt.size < 2:
+        return np.zeros(0)
+    wide = np.flatnonzero(dt > GAP_FACTOR * np.median(dt))
+    return t[wide] + 0.5 * dt[wide]
+
+
+def _break_at_gaps(rec, entity: str, gaps) -> None:
+    """An empty ``Scalars`` at each gap time: the viewer splits a line where a series was cleared."""
+    import rerun as rr
+
+    for tg in gaps:
+        set_sim_time(rec, tg)
+        rec.log(entity, rr.Scalars.cleared())
 
 
 def _bar_chart(frequency_hz, amplitude, rgb):
@@ -51,16 +75,14 @@ def write_lightcurve_recording(path: Path, lc, prior, mag_true=None, recording_i
     t = lc.t_s
     with recording(path, recording_id=recording_id or f"lightcurve-{path.stem}", blueprint=lightcurve_blueprint(spectra=SPECTRA)) as rec:
         mag = np.asarray(lc.mag, dtype=float)
-        send_scalars(rec, "/lightcurve/relative_flux", t, 10.0 ** (-0.4 * (mag - np.median(mag))))
-        send_scalars(rec, "/lightcurve/mag", t, mag)
-        if np.all(np.isfinite(lc.mag_err)):
-            send_scalars(rec, "/lightcurve/mag_err", t, lc.mag_err)
-        if mag_true is not None:
-            send_scalars(rec, "/lightcurve/mag_true", t, mag_true)
-        for name, values in (("phase_angle_deg", np.degrees(lc.phase_angle_rad)), ("range_km", lc.range_m / 1e3),
-                             ("elevation_deg", np.degrees(lc.elevation_rad))):
-            if np.all(np.isfinite(values)):
-                send_scalars(rec, f"/lightcurve/geometry/{name}", t, values)
+        series = {"relative_flux": 10.0 ** (-0.4 * (mag - np.median(mag))), "mag": mag, "mag_err": lc.mag_err, "mag_true": mag_true,
+                  "geometry/phase_angle_deg": np.degrees(lc.phase_angle_rad), "geometry/range_km": lc.range_m / 1e3,
+                  "geometry/elevation_deg": np.degrees(lc.elevation_rad)}
+        gaps = gap_times(t)
+        for name, values in series.items():
+            if values is not None and np.all(np.isfinite(values)):
+                send_scalars(rec, f"/lightcurve/{name}", t, values)
+                _break_at_gaps(rec, f"/lightcurve/{name}", gaps)
         spec = prior.spectrum
         for name, rgb in (("dirty", (150, 150, 150)), ("clean", (30, 120, 220)), ("residual", (220, 80, 40))):
             rec.log(f"/spectrum/{name}", _bar_chart(spec.frequency_hz, 2.0 * np.abs(getattr(spec, name)), rgb), static=True)
