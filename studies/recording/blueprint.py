@@ -238,7 +238,9 @@ def lightcurve_blueprint(*, spectra: Sequence[str] = ("dirty", "clean", "residua
         ),
         name="light curve",
     )
-    spectrum = rrb.Vertical(*(rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}") for n in spectra),
+    views = [rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}",
+                              contents=[f"/spectrum/{n}"] + (["/spectrum/rotation_frequency"] if n == "clean" else [])) for n in spectra]
+    spectrum = rrb.Vertical(*views,
                             rrb.TextDocumentView(name="extracted prior", origin="/spectrum/summary"), name="spectrum")
     return rrb.Blueprint(rrb.Tabs(curve, spectrum, active_tab=0), rrb.TimePanel(timeline="sim_time", play_state="paused"),
                          collapse_panels=True)
