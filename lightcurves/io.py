@@ -247,11 +247,11 @@ def ambiguous_time_unit(values) -> str | None:
     if max(abs(lo), abs(hi)) > 1e10:
         return f"reaches {max(abs(lo), abs(hi)):.6g}: looks like milliseconds since 1970 or another unit than seconds"
     if 2.2e6 <= lo and hi <= 2.6e6:
-        return f"holds {lo:.6g} to {hi:.6g}: looks like JD (days)"
+        return f"holds {lo:.10g} to {hi:.10g}: looks like JD (days)"
     if 3e4 <= lo and hi <= 1e5 and dt < 1.0:
-        return f"holds {lo:.6g} to {hi:.6g} spaced {dt:.3g}: looks like MJD (days)"
+        return f"holds {lo:.10g} to {hi:.10g} spaced {dt:.3g}: looks like MJD (days)"
     if 3e8 <= lo and hi <= 4.2e9:
-        return f"holds {lo:.6g} to {hi:.6g}: looks like Unix time (seconds since 1970) or another epoch"
+        return f"holds {lo:.10g} to {hi:.10g}: looks like Unix time (seconds since 1970) or another epoch"
     if dt >= 100.0:
         return f"is spaced {dt:.6g} (median): looks like milliseconds"
     return None
