@@ -5,7 +5,6 @@ The data come from the ellipsoid model itself (so the likelihood is exact) with 
 geometry of a ground site (lightcurves.geometry). Sizes are small: every inversion here runs in a few seconds.
 """
 
-import astropy.units as u
 import numpy as np
 import pytest
 from astropy.time import Time
@@ -17,7 +16,7 @@ from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.posterior import laplace_probabilities
 from lightcurves.inversion.search import invert, period_grid, profiled_chi2
-from lightcurves.inversion.spin import SpinState, body_directions, vector_from_radec
+from lightcurves.inversion.spin import SpinState, body_directions, pole_frame, vector_from_radec
 from lightcurves.render import observed_flux
 
 EPOCH = Time("2026-01-01T00:00:00", scale="utc")
@@ -92,12 +91,10 @@ def test_relative_and_calibrated_curves_mix():
     assert _angle_deg(best.pole_I, truth.pole_I) < 3.0 and best.contains(truth.pole_I, level=0.997)
     assert best.weights[0] == pytest.approx(1.0, rel=0.03)
     assert best.scales[1] == 1.0
-    for k in (0, 2):
-        f_mean = np.mean(curves[k].brightness / curves[k].brightness.mean()) / np.mean(curves[k].brightness) * curves[k].brightness.mean()
-        # relative brightness = flux / mean flux, so the fitted factor is ≈ 1 / mean flux
+    for k in (0, 2):  # relative brightness = flux / mean flux, so the fitted factor is 1 / mean flux
         B = ELLIPSOID.basis(*body_directions(truth, curves[k]))[:, 0]
         mean_flux = observed_flux(B, curves[k].range_m, curves[k].sun_distance_m).mean()
-        assert best.scales[k] * mean_flux == pytest.approx(f_mean, rel=0.03)
+        assert best.scales[k] * mean_flux == pytest.approx(1.0, rel=0.03)
 
 
 def test_mirror_pole_is_reported_for_coplanar_geometry():
@@ -123,14 +120,12 @@ def test_unknown_convex_shape_and_brute_force_grid():
     model = ConvexModel(60)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng, noise=0.05)
     best = invert(curves, model, (59.8, 60.2), **FAST).best
-    # the search finds a fit at least as good as the truth's (the unknown-shape pole itself is only loosely
-    # determined by three passes: see the README's measured errors)
+    # the search finds a fit at least as good as the truth's: with free areas three passes leave the pole loosely
+    # determined (measured 7–26° errors on such data, beyond the Gauss–Newton σ of ~1°), so no pole bound here
     assert best.chi2 <= profiled_chi2(curves, model, truth)[0] + 1.0
     assert abs(best.chi2 - 300) < 4 * np.sqrt(2 * 300)
     # brute force around the optimum: pole offsets along the two tangent axes × periods, ±3σ
     C = np.linalg.cholesky(best.covariance)
-    from lightcurves.inversion.spin import pole_frame
-
     e = pole_frame(best.pole_I)
     grid = np.linspace(-3, 3, 7)
     chi2 = {}
