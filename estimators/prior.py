@@ -36,6 +36,20 @@ PROXY_MODES = ("always", "on_reject")
 R_OMEGA_PROXY = 1e-3
 
 
+def _checked_covariance(C, sigma: np.ndarray) -> np.ndarray:
+    """``C`` as a symmetric positive-definite (3, 3) array whose diagonal is ``sigma²``; ValueError otherwise."""
+    C = np.asarray(C, dtype=float)
+    if C.shape != (3, 3) or not np.all(np.isfinite(C)):
+        raise ValueError(f"spin prior covariance_rad2_s2: shape {C.shape}: expected a finite (3, 3) array in (rad/s)^2")
+    if not np.allclose(C, C.T, rtol=1e-9, atol=0.0):
+        raise ValueError("spin prior covariance_rad2_s2: not symmetric: expected a symmetric (3, 3) covariance")
+    if not np.allclose(np.sqrt(np.diag(C)), sigma, rtol=1e-9, atol=0.0):
+        raise ValueError(f"spin prior sigma_rad_s {sigma.tolist()}: expected the square root of the covariance's diagonal")
+    if np.linalg.eigvalsh(C)[0] <= 0.0:
+        raise ValueError("spin prior covariance_rad2_s2: not positive definite: expected a positive-definite covariance")
+    return 0.5 * (C + C.T)
+
+
 def _unit(axis) -> np.ndarray:
     a = np.asarray(axis, dtype=float)
     n = float(np.linalg.norm(a)) if a.shape == (3,) else 0.0
@@ -46,11 +60,17 @@ def _unit(axis) -> np.ndarray:
 
 @dataclass(frozen=True)
 class BodyRatePrior:
-    """The filters' prior: the target's spin ``w_T_T_rad_s`` (3,) in its body frame and its 1-σ ``sigma_rad_s`` (3,)."""
+    """The filters' prior: the target's spin ``w_T_T_rad_s`` (3,) in its body frame and its uncertainty.
+
+    ``sigma_rad_s`` (3,) is the 1-σ per axis. ``covariance_rad2_s2`` (3, 3), when given, is the full
+    covariance (a light-curve inversion's axis uncertainty is correlated across axes); ``sigma_rad_s``
+    must then be the square root of its diagonal. Without it the covariance is ``diag(sigma²)``.
+    """
 
     w_T_T_rad_s: np.ndarray
     sigma_rad_s: np.ndarray
     source: str = ""  #: where it came from ("truth +5%", a light-curve file, ...)
+    covariance_rad2_s2: np.ndarray | None = None
 
     def __post_init__(self):
         if self.w_T_T_rad_s is None:
@@ -63,6 +83,13 @@ class BodyRatePrior:
             raise ValueError(f"spin prior sigma_rad_s must be positive (rad/s), got {self.sigma_rad_s!r}")
         object.__setattr__(self, "w_T_T_rad_s", w)
         object.__setattr__(self, "sigma_rad_s", s)
+        if self.covariance_rad2_s2 is not None:
+            object.__setattr__(self, "covariance_rad2_s2", _checked_covariance(self.covariance_rad2_s2, s))
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(3, 3) covariance of ``w_T_T_rad_s``, (rad/s)²."""
+        return self.covariance_rad2_s2 if self.covariance_rad2_s2 is not None else np.diag(self.sigma_rad_s**2)
 
     @classmethod
     def from_truth(cls, w_T_T_true, error_fraction: float) -> "BodyRatePrior":
@@ -118,7 +145,7 @@ def tuning_for_prior(prior: BodyRatePrior, *, fast_rad_s: float = 0.1, single_ax
 
 
 def initialize_with_prior(x0, P0, prior: BodyRatePrior, servicer) -> tuple[np.ndarray, np.ndarray]:
-    """``x̂_0`` with ``ω̂_ST_0 = R(q̂_TS,0) ω_S_S − ω_prior`` and ``P_0``'s ω block ``diag(σ²)``.
+    """``x̂_0`` with ``ω̂_ST_0 = R(q̂_TS,0) ω_S_S − ω_prior`` and ``P_0``'s ω block the prior's covariance.
 
     ``servicer``: the servicer's absolute state (13) at ``t_0``. Cross terms of
     the ω block with the other states are zeroed.
@@ -129,7 +156,7 @@ def initialize_with_prior(x0, P0, prior: BodyRatePrior, servicer) -> tuple[np.nd
     x0[W_ST_T] = quat_to_dcm(x0[Q_TS] / np.linalg.norm(x0[Q_TS])) @ w_S - prior.w_T_T_rad_s
     P0[DW_ST_T, :] = 0.0
     P0[:, DW_ST_T] = 0.0
-    P0[DW_ST_T, DW_ST_T] = np.diag(prior.sigma_rad_s**2)
+    P0[DW_ST_T, DW_ST_T] = prior.covariance  # ω_ST = R ω_S − ω_T: the sign does not change the covariance
     return x0, P0
 
 

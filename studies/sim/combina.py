@@ -336,7 +336,7 @@ def _initial_estimates(cfg: CombinaConfig, truth: LvlhTruth, rng: np.random.Gene
         prior = _spin_prior(cfg, truth, rng)
         x0_a[OMEGA] = prior.w_T_T_rad_s
         prior_rate = float(np.linalg.norm(prior.w_T_T_rad_s))  # the same prior, as a rate
-        P0_a[OMEGA, OMEGA] = np.diag(prior.sigma_rad_s**2)
+        P0_a[OMEGA, OMEGA] = prior.covariance
     return x0_s, P0_s, x0_a, P0_a, prior_rate
 
 

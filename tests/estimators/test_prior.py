@@ -171,3 +171,27 @@ def test_without_reacquisition_the_gate_locks_the_ukf_out(truth):
         after = run.t >= 180.0
         locked.append(not run.accepted["position"][after].any() and e["r"][-1] > 10.0)
     assert any(locked)
+
+
+def test_prior_with_a_full_covariance_initialises_the_rate_block_with_it():
+    """An inversion's axis uncertainty is correlated: the ω block of P_0 is the prior's full covariance, and a
+    covariance that is not symmetric positive definite, or whose diagonal is not σ², is refused."""
+    L = np.array([[2e-3, 0.0, 0.0], [1e-3, 1e-3, 0.0], [-5e-4, 2e-4, 5e-4]])
+    C = L @ L.T
+    p = BodyRatePrior([0.02, 0.0, 0.045], np.sqrt(np.diag(C)), covariance_rad2_s2=C)
+    np.testing.assert_array_equal(p.covariance, C)
+    x0 = np.zeros(N_STATE)
+    x0[Q_TS] = [1.0, 0.0, 0.0, 0.0]
+    servicer = np.zeros(13)
+    servicer[W_B] = [0.0, 0.0, 1e-3]
+    x, P = initialize_with_prior(x0, np.eye(N_ERROR), p, servicer)
+    np.testing.assert_allclose(P[DW_ST_T, DW_ST_T], C, rtol=1e-12)
+    np.testing.assert_allclose(x[W_ST_T], servicer[W_B] - p.w_T_T_rad_s)
+    assert np.all(P[DW_ST_T][:, [i for i in range(N_ERROR) if i not in range(*DW_ST_T.indices(N_ERROR))]] == 0.0)
+    with pytest.raises(ValueError, match="square root of the covariance's diagonal"):
+        BodyRatePrior([0.02, 0.0, 0.045], np.sqrt(np.diag(C)) * 1.1, covariance_rad2_s2=C)
+    with pytest.raises(ValueError, match="positive definite"):
+        bad = np.diag([1e-6, 1e-6, 1e-6]) + 2e-6 * (np.ones((3, 3)) - np.eye(3))
+        BodyRatePrior([0.02, 0.0, 0.045], np.sqrt(np.diag(bad)), covariance_rad2_s2=bad)
+    with pytest.raises(ValueError, match="symmetric"):
+        BodyRatePrior([0.02, 0.0, 0.045], np.sqrt(np.diag(C)), covariance_rad2_s2=C + np.triu(np.full((3, 3), 1e-7), 1))
