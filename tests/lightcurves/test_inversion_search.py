@@ -16,7 +16,8 @@ from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.posterior import laplace_probabilities
 from lightcurves.inversion.search import invert, period_grid, profiled_chi2
-from lightcurves.inversion.spin import SpinState, body_directions, pole_frame, vector_from_radec
+from lightcurves.inversion.frames import pole_from_radec
+from lightcurves.inversion.spin import SpinState, body_directions, pole_frame
 from lightcurves.render import observed_flux
 
 EPOCH = Time("2026-01-01T00:00:00", scale="utc")
@@ -62,7 +63,7 @@ def _passes(rng, n=100, pass_s=600.0, gap_s=3600.0, sweep_deg=80.0, coplanar=Fal
 
 def test_known_shape_recovers_pole_period_and_sense():
     rng = np.random.default_rng(11)
-    truth = SpinState(vector_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
     seen = []
     res = invert(curves, ELLIPSOID, (59.7, 60.3), progress=lambda i, n: seen.append((i, n)), **FAST)
@@ -84,7 +85,7 @@ def test_known_shape_recovers_pole_period_and_sense():
 def test_relative_and_calibrated_curves_mix():
     """One calibrated night fixes the reflectance (truth 1); the relative nights' scales are 1/mean flux."""
     rng = np.random.default_rng(12)
-    truth = SpinState(vector_from_radec(4.0, -0.3), 45.0, 1.0, EPOCH)
+    truth = SpinState(pole_from_radec(4.0, -0.3), 45.0, 1.0, EPOCH)
     geometry = _passes(rng)
     curves = _observe_curves(truth, ELLIPSOID, geometry, rng, calibrated=[False, True, False])
     best = invert(curves, ELLIPSOID, (44.8, 45.2), **FAST).best
@@ -101,7 +102,7 @@ def test_mirror_pole_is_reported_for_coplanar_geometry():
     """Sun and observer in one plane (here I's xy-plane): a pole p and its mirror (−p_x, −p_y, p_z) give the same light
     curves for a mirror-symmetric shape (Kaasalainen & Lamberg, Inverse Problems 22, 2006); both are reported."""
     rng = np.random.default_rng(13)
-    truth = SpinState(vector_from_radec(0.7, 0.5), 50.0, 0.0, EPOCH)
+    truth = SpinState(pole_from_radec(0.7, 0.5), 50.0, 0.0, EPOCH)
     mirror = truth.pole_I * np.array([-1.0, -1.0, 1.0])
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng, coplanar=True), rng)
     res = invert(curves, ELLIPSOID, (49.8, 50.2), **FAST)
@@ -116,7 +117,7 @@ def test_unknown_convex_shape_and_brute_force_grid():
     """Unknown shape (free facet areas) on ellipsoid data; then a dense grid of the SAME profiled likelihood around the
     solution finds no lower χ² than the refinement and its minimum next to it."""
     rng = np.random.default_rng(14)
-    truth = SpinState(vector_from_radec(2.5, 0.2), 60.0, 0.0, EPOCH)
+    truth = SpinState(pole_from_radec(2.5, 0.2), 60.0, 0.0, EPOCH)
     model = ConvexModel(60)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng, noise=0.05)
     best = invert(curves, model, (59.8, 60.2), **FAST).best
@@ -155,7 +156,7 @@ def test_ground_site_geometry_over_three_nights():
         assert run.any() and ob.visible.all()
         geometry.append((ob.t_s, ob.sun_dir_I, ob.observer_dir_I, ob.sun_distance_m, ob.range_m))
     rng = np.random.default_rng(15)
-    truth = SpinState(vector_from_radec(3.0, -0.8), 40.0, 0.5, epoch, [1.0, 0.0, 0.0])
+    truth = SpinState(pole_from_radec(3.0, -0.8), 40.0, 0.5, epoch, [1.0, 0.0, 0.0])
     curves = [InversionCurve(c.t_s, epoch, c.brightness, c.sigma, c.sun_dir_I, c.observer_dir_I, c.sun_distance_m, c.range_m)
               for c in _observe_curves(SpinState(truth.pole_I, 40.0, 0.5, EPOCH, truth.axis_T), ELLIPSOID, geometry, rng)]
     # the period known to 0.05 % (a user's synodic estimate, narrowed to keep the test short)
