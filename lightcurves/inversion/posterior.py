@@ -8,7 +8,7 @@ at the tangent offset ``θ·(e₁·u, e₂·u)`` with θ the angle from the esti
 of ``p`` seen from it (the logarithmic map of the sphere).
 
 Relative probabilities of modes come from their Laplace evidences (MacKay, *Information Theory,
-Inference and Learning Algorithms*, 2003, eq. 28.8)
+Inference and Learning Algorithms*, 2003, ch. 28)
 
     Z_i ∝ exp(−χ²_i / (2 s)) · √det Σ_i · V,
 

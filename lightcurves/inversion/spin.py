@@ -2,7 +2,7 @@
 
 The body turns at the constant sidereal rate ``ω = 2π/P`` about the inertial direction ``pole_I`` (the
 angular-momentum direction: the rotation is right-handed about it, so the pole carries the sense).
-Its attitude is (eq. 1 of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
+Its attitude is (the rotation model of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
 
     C_IT(t) = C_IP · R_z(φ(t)) · C_AT,      φ(t) = φ₀ + ω (t − t₀ − ρ(t)/c)
 
