@@ -342,8 +342,8 @@ def _validate(curves, period_range_s) -> tuple[float, float]:
 
 
 def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float, float], *, rng: np.random.Generator | None = None,
-           progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 1.0,
-           n_grid_samples: int = 200, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 2,
+           progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
+           n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
            axes_T=None, n_phases: int = 24, n_refine_samples: int = 150) -> InversionResult:
     """Spin state(s) of one object from its light curves: all modes the data cannot tell apart (module docstring).
 
@@ -355,9 +355,11 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     period_range_s : (min, max) sidereal period searched, s.
     rng : if given, turns the pole lattice by a random rotation (so repeated studies do not share grid points).
     progress : called as ``progress(n_done, n_total)`` during the grid and the refinements.
-    pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule.
+    pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule
+        (2 by default: with the quarter-turn step the screening missed the true basin on 3 × 600 samples at 2 % noise).
     n_grid_samples : samples per curve used by the grid; screen_facets : normals of the screening model.
-    n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each.
+    n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each (nights days
+        apart leave cycle-count aliases ≈ P²/T apart: each is refined and reported with its probability).
     axes_T : (n, 3) candidate body spin axes for a known shape (default the principal axes ±x, ±y, ±z).
     n_phases : phases tried per axis for a known shape.
     n_refine_samples : samples per curve of the first refinement; the optimum is then polished on all samples.
