@@ -6,6 +6,7 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 
 * :mod:`~lightcurves.inversion.data` — :class:`InversionCurve`, one light curve with its per-sample
   geometry (Sun and observer directions in the inertial frame I), the input of everything here.
+* :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target's facets: intensity/basis (W/sr) as Mitsuba renders it, self-shadowing included.
 
 References
 ----------
@@ -16,5 +17,6 @@ References
 """
 
 from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.known_shape import KnownShapeModel
 
-__all__ = ["InversionCurve"]
+__all__ = ["InversionCurve", "KnownShapeModel"]
