@@ -6,7 +6,7 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 
 * :mod:`~lightcurves.inversion.data` — :class:`InversionCurve`, one light curve with its per-sample
   geometry (Sun and observer directions in the inertial frame I), the input of everything here.
-* :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target's facets: intensity/basis (W/sr) as Mitsuba renders it, self-shadowing included.
+* :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target as facets: its intensity (W/sr) as Mitsuba renders it.
 
 References
 ----------
