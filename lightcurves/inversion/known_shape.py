@@ -102,14 +102,35 @@ class _SphereInterpolator:
 
     def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Indices (N, 3) of the corner directions and weights (N, 3), summing to 1, for unit queries ``q`` (N, 3)."""
-        cand = self.around[self.tree.query(q)[1]]  # (N, deg) triangles around the nearest direction
-        b = np.einsum("ndij,nj->ndi", self.inv[np.maximum(cand, 0)], q)
-        b = b / b.sum(axis=2, keepdims=True)
-        score = np.where(cand >= 0, b.min(axis=2), -np.inf)
-        best = score.argmax(axis=1)
-        r = np.arange(len(q))
-        w = np.maximum(b[r, best], 0.0)
-        return self.tri[cand[r, best]], w / w.sum(axis=1, keepdims=True)
+        idx, w = np.empty((len(q), 3), np.int64), np.empty((len(q), 3))
+        _locate(q, self.around[self.tree.query(q)[1]], self.inv, self.tri, idx, w)
+        return idx, w
+
+
+@numba.njit(cache=True)
+def _locate(q, cand, inv, tri, idx, w):  # pragma: no cover - compiled
+    """For each query, the candidate triangle with the largest smallest barycentric coordinate, and its clipped weights.
+
+    Numba: the numpy form (an (N, deg, 3, 3) gather and einsum) took 30 ms for 1800 queries.
+    """
+    b = np.empty(3)
+    for i in range(q.shape[0]):
+        best, best_score = -1, -np.inf
+        for c in cand[i]:
+            if c < 0:
+                continue
+            for r in range(3):
+                b[r] = inv[c, r, 0] * q[i, 0] + inv[c, r, 1] * q[i, 1] + inv[c, r, 2] * q[i, 2]
+            score = min(b[0], b[1], b[2]) / (b[0] + b[1] + b[2])
+            if score > best_score:
+                best, best_score = c, score
+        total = 0.0
+        for r in range(3):
+            b[r] = max(inv[best, r, 0] * q[i, 0] + inv[best, r, 1] * q[i, 1] + inv[best, r, 2] * q[i, 2], 0.0)
+            total += b[r]
+        for r in range(3):
+            idx[i, r] = tri[best, r]
+            w[i, r] = b[r] / total
 
 
 # ---------------------------------------------------------------- facets
@@ -285,28 +306,56 @@ def _beckmann_lobe(ch, cs, co, inv_a2, d_norm, inv_alpha):  # pragma: no cover -
 
 
 @numba.njit(cache=True, fastmath=True)
-def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, area, n, m, mat, diffuse_pi, spec, inv_a2, d_norm, inv_alpha, fresnel,
-                      vis_row, masks, popcount, out):  # pragma: no cover - compiled
-    """Eq. (1) for each sample: ``out[j] = Σ_f`` over facets, flat loop with early exits (numba, one core)."""
+def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, starts, axis, sin_half, area, n, m, mat, vis_row, materials, fresnel, masks,
+                      popcount, out):  # pragma: no cover - compiled
+    """Eq. (1) for each sample, ``out[j] = Σ_f``, over blocks of facets with similar normals (numba, one core).
+
+    A block whose normal cone (``axis``, half-angle θ) faces away from the Sun or the observer
+    (``axis·s <= -sin θ``) is skipped whole: at moderate phase about three blocks in four.
+    ``materials`` (Q, 5): d/π, s, 1/α², 1/(πα²), 1/α per material.
+    """
     for j in range(sun.shape[0]):
         sx, sy, sz = sun[j, 0], sun[j, 1], sun[j, 2]
         ox, oy, oz = obs[j, 0], obs[j, 1], obs[j, 2]
-        hx, hy, hz = half[j, 0], half[j, 1], half[j, 2]
         acc = 0.0
-        for f in range(area.shape[0]):
-            cg = n[f, 0] * ox + n[f, 1] * oy + n[f, 2] * oz
-            cs = m[f, 0] * sx + m[f, 1] * sy + m[f, 2] * sz
-            co = m[f, 0] * ox + m[f, 1] * oy + m[f, 2] * oz
-            if cg <= 0.0 or cs <= 0.0 or co <= 0.0:
+        for b in range(starts.shape[0] - 1):
+            if (axis[b, 0] * sx + axis[b, 1] * sy + axis[b, 2] * sz <= -sin_half[b]
+                    or axis[b, 0] * ox + axis[b, 1] * oy + axis[b, 2] * oz <= -sin_half[b]):
                 continue
-            vis = 1.0 if vis_row[f] < 0 else _visible_fraction(masks, popcount, vis_row[f], ks[j], ws[j], ko[j], wo[j])
-            q = mat[f]
-            term = diffuse_pi[q] * cs
-            if spec[q] > 0.0:
-                ch = m[f, 0] * hx + m[f, 1] * hy + m[f, 2] * hz
-                term += spec[q] * fresnel[j, q] * _beckmann_lobe(ch, cs, co, inv_a2[q], d_norm[q], inv_alpha[q])
-            acc += area[f] * cg * term * vis
+            for f in range(starts[b], starts[b + 1]):
+                cg = n[f, 0] * ox + n[f, 1] * oy + n[f, 2] * oz
+                cs = m[f, 0] * sx + m[f, 1] * sy + m[f, 2] * sz
+                co = m[f, 0] * ox + m[f, 1] * oy + m[f, 2] * oz
+                if cg <= 0.0 or cs <= 0.0 or co <= 0.0:
+                    continue
+                vis = 1.0 if vis_row[f] < 0 else _visible_fraction(masks, popcount, vis_row[f], ks[j], ws[j], ko[j], wo[j])
+                q = mat[f]
+                term = materials[q, 0] * cs
+                if materials[q, 1] > 0.0:
+                    ch = m[f, 0] * half[j, 0] + m[f, 1] * half[j, 1] + m[f, 2] * half[j, 2]
+                    term += materials[q, 1] * fresnel[j, q] * _beckmann_lobe(ch, cs, co, materials[q, 2], materials[q, 3], materials[q, 4])
+                acc += area[f] * cg * term * vis
         out[j] = acc
+
+
+def _normal_blocks(n: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A facet order (F,), block starts (B+1,), cone axes (B, 3) and sin of the cone half-angles (B,) for :func:`_intensity_kernel`.
+
+    Facets are binned by the nearest of ``F/24`` Fibonacci directions to their shading normal; a
+    block is a bin. The cone holds both normals of every facet; half-angles above 90° never cull.
+    """
+    k = max(1, len(n) // 24)
+    label = cKDTree(fibonacci_sphere(k)).query(m)[1]
+    order = np.argsort(label, kind="stable")
+    label = label[order]
+    starts = np.concatenate([[0], np.nonzero(np.diff(label))[0] + 1, [len(n)]]).astype(np.int64)
+    nn, mm = n[order], m[order]
+    axis = np.add.reduceat(nn + mm, starts[:-1], axis=0)
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-300)
+    cos_min = np.minimum(np.minimum.reduceat(np.einsum("fk,fk->f", nn, np.repeat(axis, np.diff(starts), axis=0)), starts[:-1]),
+                         np.minimum.reduceat(np.einsum("fk,fk->f", mm, np.repeat(axis, np.diff(starts), axis=0)), starts[:-1]))
+    sin_half = np.where(cos_min > 0.0, np.sqrt(np.maximum(1.0 - cos_min**2, 0.0)) + 1e-9, 2.0)
+    return order, starts, axis, sin_half
 
 
 # ---------------------------------------------------------------- the model
@@ -349,21 +398,17 @@ class KnownShapeModel:
     vis_masks: np.ndarray
     irradiance_w_m2: float = S.SUN_IRRADIANCE_W_M2
     _lookup: _SphereInterpolator | None = field(init=False, repr=False)
-    _tables: tuple = field(init=False, repr=False)
+    _packed: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         lookup = _SphereInterpolator(self.directions_T) if len(self.directions_T) else None
-        mats = self.materials
-        a2 = np.array([mt.roughness**2 for mt in mats])
-        tables = (
-            np.array([mt.diffuse_albedo / np.pi for mt in mats]),
-            np.array([mt.specular_albedo for mt in mats]),
-            1.0 / a2,
-            1.0 / (np.pi * a2),
-            np.array([1.0 / mt.roughness for mt in mats]),
-        )
+        materials = np.array([[mt.diffuse_albedo / np.pi, mt.specular_albedo, mt.roughness**-2, 1.0 / (np.pi * mt.roughness**2),
+                                1.0 / mt.roughness] for mt in self.materials])
+        order, starts, axis, sin_half = _normal_blocks(self.normal_T, self.shading_normal_T)
+        packed = (starts, axis, sin_half, *(np.ascontiguousarray(a[order]) for a in (self.area_m2, self.normal_T, self.shading_normal_T,
+                                                                                       self.material_index, self.vis_row)), materials)
         object.__setattr__(self, "_lookup", lookup)
-        object.__setattr__(self, "_tables", tables)
+        object.__setattr__(self, "_packed", packed)
 
     # ------------------------------------------------------------ construction
 
@@ -500,11 +545,9 @@ class KnownShapeModel:
         else:
             ks = ko = np.zeros((len(sun), 3), np.int64)
             ws = wo = np.full((len(sun), 3), 1.0 / 3.0)
-        diffuse_pi, spec, inv_a2, d_norm, inv_alpha = self._tables
         out = np.empty(len(sun))
         masks = self.vis_masks if len(self.vis_masks) else np.zeros((1, 1), np.uint16)
-        _intensity_kernel(sun, obs, half, ks, ws, ko, wo, self.area_m2, self.normal_T, self.shading_normal_T, self.material_index,
-                          diffuse_pi, spec, inv_a2, d_norm, inv_alpha, np.ascontiguousarray(fresnel), self.vis_row, masks, _POPCOUNT16, out)
+        _intensity_kernel(sun, obs, half, ks, ws, ko, wo, *self._packed, np.ascontiguousarray(fresnel), masks, _POPCOUNT16, out)
         return out * self.irradiance_w_m2
 
     def basis(self, sun_T, obs_T) -> np.ndarray:
