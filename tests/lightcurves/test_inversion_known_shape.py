@@ -62,13 +62,16 @@ def test_lambert_sphere_phase_law_to_the_tessellation_error():
     assert err[5] < err[3] / 10.0  # two subdivisions: the flat-facet error converges as edge² (measured 16x)
 
 
-def _plate(material, area=0.8, normal=(0.0, 0.0, 1.0)):
-    """A one-facet model (a flat plate of ``area`` m²), built directly from the per-facet arrays."""
-    n = _unit(np.asarray(normal, dtype=float))[None]
-    return KnownShapeModel(area_m2=np.array([area]), normal_T=n, shading_normal_T=n, centroid_T=np.zeros((1, 3)),
-                           material_index=np.zeros(1, np.int32), part_index=np.zeros(1, np.int32), materials=(material,),
-                           part_names=("plate",), directions_T=np.zeros((0, 3)), vis_row=np.full(1, -1, np.int32),
-                           vis_masks=np.zeros((0, 0), np.uint16))
+def _plate_fields(material, area=0.8):
+    n = np.array([[0.0, 0.0, 1.0]])
+    return dict(area_m2=np.array([area]), normal_T=n, shading_normal_T=n, centroid_T=np.zeros((1, 3)),
+                material_index=np.zeros(1, np.int32), part_index=np.zeros(1, np.int32), materials=(material,), part_names=("plate",),
+                directions_T=np.zeros((0, 3)), vis_row=np.full(1, -1, np.int32), vis_masks=np.zeros((0, 0), np.uint16))
+
+
+def _plate(material, area=0.8):
+    """A one-facet model (a flat plate of ``area`` m², normal +z), built directly from the per-facet arrays."""
+    return KnownShapeModel(**_plate_fields(material, area))
 
 
 @pytest.mark.parametrize("material", [WHITE_PAINT, ALUMINIUM, SOLAR_CELL], ids=lambda m: m.name)
@@ -152,6 +155,8 @@ def test_bad_directions_are_named(bad, field):
         model.intensity(_unit(np.ones((3, 3))), _unit(np.ones((2, 3))))
     with pytest.raises(KnownShapeError, match="^max_facets: 0: expected"):
         model.coarse(0)
+    with pytest.raises(KnownShapeError, match="^normal_T: norms from 2 to 2: expected unit vectors"):
+        KnownShapeModel(**{**_plate_fields(WHITE_PAINT), "normal_T": np.array([[0.0, 0.0, 2.0]])})
 
 
 # ---------------------------------------------------------------- against Mitsuba renders
