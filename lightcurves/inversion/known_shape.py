@@ -12,9 +12,10 @@ the single-scattering integral Mitsuba's ``direct`` integrator estimates with a 
 an orthographic sensor: a pixel sees the projected area ``A (n·o)`` (geometric normal) and the
 BSDF is evaluated, with its Sun cosine, in the shading frame (``m_f`` = the interpolated vertex
 normal of smooth parts, ``n_f`` for flat ones). For the smooth 20 480-facet sphere, the
-interpolated normal at the centroid and the flat normal give the same intensity to 3e-4 of I(α)
-up to α = 170°, both converging as edge² to the Lambert law, so one sample per facet suffices. ``vis_f(s, o)`` is the fraction of the facet lit
-by the Sun *and* seen by the observer (self-shadowing and self-occlusion).
+interpolated normal at the centroid and the flat normal give the same intensity to 3e-4 of
+I(α) up to α = 170°, both converging as edge² to the Lambert law, so one sample per facet
+suffices. ``vis_f(s, o)`` is the fraction of the facet lit by the Sun *and* seen by the
+observer (self-shadowing and self-occlusion).
 
 The BRDF is :func:`lightcurves.scene.cook_torrance_brdf`, ``f_r = d/π + s F D G₁(i) G₁(o)/(4 cos θ_i
 cos θ_o)``, rearranged so that both cosines cancel in the specular term (no 0/0 at grazing):
@@ -33,14 +34,15 @@ spherical Delaunay triangle of table directions that holds them (barycentric wei
 ``vis_f = Σ_ab w_a(s) w_b(o) popcount(mask_a & mask_b) / 16`` — the fraction of points both lit
 and seen, so a shadow and an occlusion of the same corner are not counted twice. Barycentric
 interpolation instead of the nearest direction cut the box-wing error against a 256-px Mitsuba
-reference from 1.2 to 0.3 % rms (2048 directions) and vespa's from 2.4 to 0.4 % (1024). Only facets that
-another part of the mesh can hide (some vertex above the facet's plane) carry a table; the
-others (every facet of a convex body) are always visible in their front hemisphere.
+reference from 1.2 to 0.3 % rms (2048 directions) and vespa's from 2.4 to 0.4 % (1024). Only
+facets that another part of the mesh can hide (some vertex above the facet's plane) carry a
+table; the others (every facet of a convex body) are always visible in their front hemisphere.
 
 Large triangles are first bisected along their longest edge until no edge exceeds
 ``max_edge_m`` so that shadow boundaries are resolved (box-wing panels are metres long).
 :meth:`KnownShapeModel.coarse` merges facets by part, material and normal for a cheap search
-model.
+model. The sum runs over blocks of facets with similar normals; a block whose normal cone
+faces away from the Sun or the observer is skipped whole.
 
 References: Kaasalainen & Torppa, Icarus 153 (2001) §2 (the facet brightness sum); Cook &
 Torrance, ACM TOG 1 (1982); Walter, Marschner, Li & Torrance, EGSR 2007.
@@ -57,7 +59,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from lightcurves import scene as S
 from lightcurves.targets import Material, Target
 
-__all__ = ["KnownShapeModel", "fibonacci_sphere"]
+__all__ = ["KnownShapeModel", "KnownShapeError", "fibonacci_sphere"]
 
 _SUB_LEVEL_POINTS = 16  # sample points per facet for the shadow table (one bit each of a uint16)
 _HORIZON_LIFT = 1e-3  # rad: directions at or below a facet's horizon are traced this far above it
@@ -486,7 +488,7 @@ class KnownShapeModel:
         return replace(self, directions_T=np.zeros((0, 3)), vis_row=np.full(self.n_facets, -1, np.int32), vis_masks=np.zeros((0, 0), np.uint16))
 
     def coarse(self, max_facets: int) -> KnownShapeModel:
-        """A cheaper model of at most ``max_facets`` facets: facets merged by part, material and normal.
+        """A cheaper model of at most ``max_facets`` facets (but one per part and material at least), merged by normal.
 
         Within each (part, material) group, facets are binned by their nearest direction of a
         Fibonacci sphere of ``k`` directions (the largest ``k`` that keeps the total within
