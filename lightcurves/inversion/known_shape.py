@@ -270,6 +270,36 @@ def _shadow_masks(target: Target, normal, corners, directions, eps: float, varia
     return masks
 
 
+def _split_spatially(labels: np.ndarray, area: np.ndarray, centroid: np.ndarray, max_clusters: int) -> np.ndarray:
+    """Split clusters until there are ``max_clusters``: always the largest-area one, at its area median along its widest axis.
+
+    Deterministic; a cluster of one facet is never split. Returns new labels 0..C-1.
+    """
+    labels = labels.copy()
+    n = int(labels.max()) + 1
+    totals = np.bincount(labels, area, n)
+    counts = np.bincount(labels, minlength=n)
+    while n < max_clusters:
+        splittable = np.nonzero(counts > 1)[0]
+        if not len(splittable):
+            break
+        c = splittable[np.argmax(totals[splittable])]
+        members = np.nonzero(labels == c)[0]
+        x = centroid[members]
+        coord = x[:, np.argmax(np.ptp(x, axis=0))]
+        order = np.argsort(coord, kind="stable")
+        cum = np.cumsum(area[members[order]])
+        cut = int(np.clip(np.searchsorted(cum, 0.5 * cum[-1]) + 1, 1, len(members) - 1))
+        moved = members[order[cut:]]
+        labels[moved] = n
+        totals = np.append(totals, area[moved].sum())
+        totals[c] -= totals[-1]
+        counts = np.append(counts, len(moved))
+        counts[c] -= len(moved)
+        n += 1
+    return labels
+
+
 # ---------------------------------------------------------------- the kernel
 
 _POPCOUNT16 = np.array([bin(i).count("1") for i in range(1 << 16)], dtype=np.uint8)
@@ -492,8 +522,10 @@ class KnownShapeModel:
 
         Within each (part, material) group, facets are binned by their nearest direction of a
         Fibonacci sphere of ``k`` directions (the largest ``k`` that keeps the total within
-        ``max_facets``). A merged facet keeps the total area, the area-weighted mean normals and
-        centroid, and 16 of its members' shadow sample points chosen in proportion to area.
+        ``max_facets``). Flat faces saturate that (box-wing: 18 distinct part-normal pairs), so the
+        remaining budget splits the largest clusters in space (:func:`_split_spatially`). A merged
+        facet keeps the total area, the area-weighted mean normals and centroid, and 16 of its
+        members' shadow sample points chosen in proportion to area.
         """
         if int(max_facets) < 1:
             raise KnownShapeError(f"max_facets: {max_facets}: expected an integer >= 1")
@@ -512,7 +544,7 @@ class KnownShapeModel:
                 hi = k - 1
         if best is None:  # fewer facets than (part, material) groups: merge by group only
             best = np.unique(group, return_inverse=True)[1].reshape(-1)
-        return self._merged(best)
+        return self._merged(_split_spatially(best, self.area_m2, self.centroid_T, max_facets))
 
     def _merged(self, labels: np.ndarray) -> KnownShapeModel:
         n_new = int(labels.max()) + 1
