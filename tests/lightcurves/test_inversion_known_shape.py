@@ -217,3 +217,15 @@ def test_box_wing_shadows_are_needed_and_right(models):
     rendered = UnresolvedRenderer(target, **FILM).intensity(sun[pick], obs[pick])
     assert _rms_rel(with_shadows[pick], rendered) < 0.02  # measured 0.8 % (1.3 % between this film and a 256-px one)
     assert _rms_rel(without[pick], rendered) > 0.3  # measured 53 %
+
+
+@needs_llvm
+def test_box_wing_coarse_model_keeps_the_shadows(models):
+    """``coarse(128)``: flat faces saturate the normal bins at 18 clusters; the spatial split fills the budget and keeps shadows."""
+    _, model = _model(models, "box-wing")
+    coarse = model.coarse(128)
+    assert coarse.n_facets == 128
+    assert coarse.area_m2.sum() == pytest.approx(model.area_m2.sum(), rel=1e-12)
+    sun, obs = _geometries(np.random.default_rng(5), 300)
+    # measured 0.14 % rms of the full model (merging by normal alone: 18 facets, 2.8 % median arc error)
+    assert _rms_rel(coarse.intensity(sun, obs), model.intensity(sun, obs)) < 0.01
