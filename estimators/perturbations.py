@@ -309,6 +309,8 @@ class TruthPhysics:
     (~0.01 m²/kg: a 1.5 t, 2.4 m × 6.5 m stage tumbling shows ~15 m² on average) and a compact servicer (~0.005 m²/kg).
     ``nutation_time_constant_s`` is chosen, not measured: slow (1 day) so that a 300–5400 s run sees a small but present
     decay (Explorer 1's whip antennas damped its nutation within one orbit; a rocket body's slosh is far slower).
+    Measured on SC3: the excess energy ``E − E_min`` falls by 0.46 % in 600 s and 3.8 % in 5400 s, while the inertial
+    direction of H moves by < 3e-4° (the torque turns with the body and averages out).
     """
 
     name: str

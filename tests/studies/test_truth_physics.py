@@ -9,7 +9,12 @@ from estimators import dynamics as dyn
 from estimators import perturbations as pt
 from estimators.attitude import quat_to_dcm
 from estimators.state import Q_IB, R_I, V_I, W_ST_T
+from estimators.perturbations import TRUTH_PHYSICS
+from studies.catalog import truth_study
 from studies.cli import main
+from studies.engine.config import ConfigError, default_config_path
+from studies.engine.registry import get_study
+from studies.engine.sweep import RunSpec
 from studies.sim.disturbance import disturbance_budget
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import initial_states, simulate_truth
@@ -110,3 +115,25 @@ def test_run_records_the_truth_in_metrics(tmp_path):
     assert main(["run", "--scenario", "SC3", "--duration", "20", "--dt", "1", "--truth", "perturbed", "--out", str(out)]) == 0
     cfg = json.loads((out / "metrics.json").read_text())["config"]
     assert cfg["truth"] == "perturbed" and cfg["truth_physics"]["nutation_time_constant_s"] == 86400.0
+
+
+@pytest.mark.parametrize("study", ["truth", "tuning", "init", "proxy", "chain", "combina"])
+def test_study_configs_default_to_the_torque_free_truth_and_refuse_another_name(tmp_path, study):
+    definition = get_study(study)
+    assert definition.load().params["truth"] == "torque-free"
+    bad = tmp_path / f"{study}.toml"
+    bad.write_text(default_config_path(study).read_text().replace('truth = "torque-free"', 'truth = "kepler"'))
+    with pytest.raises(ConfigError, match=r"field 'truth' must be one of 'torque-free', 'perturbed', got 'kepler'"):
+        definition.load(bad)
+
+
+def test_truth_study_run_sees_the_unmodelled_physics(tmp_path):
+    """The truth study's RK4 of eq. 21 (Kepler, torque-free) matches the torque-free truth to < 1 mm, not the perturbed one."""
+    config = get_study("truth").load(quick=True)
+    params = {k: config[k] for k in truth_study._RUN_FIELDS}
+    params.update(scenario="SC3", seed_index=0, duration_s=60.0, record=False)
+    err = {}
+    for physics in TRUTH_PHYSICS:
+        row = truth_study.execute(RunSpec("SC3-s000", 7, {**params, "truth": physics}), tmp_path)
+        err[physics] = row["rk4_pos_err_max_m"]
+    assert err["torque-free"] < 1e-3 < err["perturbed"]
