@@ -87,7 +87,7 @@ TRUTH_PHYSICS = ("torque-free", "perturbed")
 """Names accepted by :func:`get_truth_physics` (and ``--truth``)."""
 
 # Layout of the parameter vector of one body (what the compiled right-hand side reads); a switched-off term has 0.
-P_MU, P_J2, P_GG, P_CD_AM, P_RHO0, P_R0, P_HSCALE, P_SRP, P_SUN, P_INV_TAU = 0, 1, 2, 3, 4, 5, 6, 7, slice(8, 11), 11
+P_MU, P_J2, P_GG, P_CD_AM, P_RHO0, P_H0, P_HSCALE, P_SRP, P_SUN, P_INV_TAU = 0, 1, 2, 3, 4, 5, 6, 7, slice(8, 11), 11
 N_PARAMS = 12
 #: Names of the translational (in I, m/s²) and angular (in B, rad/s²) terms of :func:`perturbing_accelerations`.
 TRANSLATIONAL_TERMS = ("j2", "drag", "srp")
@@ -209,7 +209,7 @@ def _terms(s, J, p):
     a_j2 = j2_acceleration(r, p[P_MU], p[P_J2], R_EARTH) if p[P_J2] != 0.0 else z
     a_drag = z
     if p[P_CD_AM] != 0.0:
-        a_drag = drag_acceleration(r, v, p[P_CD_AM], atmosphere_density(rn, R_EARTH, p[P_RHO0], p[P_R0], p[P_HSCALE]))
+        a_drag = drag_acceleration(r, v, p[P_CD_AM], atmosphere_density(rn, R_EARTH, p[P_RHO0], p[P_H0], p[P_HSCALE]))
     a_srp = srp_acceleration(r, (p[P_SUN.start], p[P_SUN.start + 1], p[P_SUN.start + 2]), p[P_SRP], R_EARTH) if p[P_SRP] != 0.0 else z
     w_gg = z
     if p[P_GG] != 0.0:
@@ -361,7 +361,7 @@ class TruthPhysics:
         am = self.target_area_to_mass_m2_kg if is_target else self.servicer_area_to_mass_m2_kg
         if self.drag:
             h0, rho0, scale_h = atmosphere_band(float(np.linalg.norm(r0_I)) - R_EARTH)
-            p[P_CD_AM], p[P_RHO0], p[P_R0], p[P_HSCALE] = self.drag_coefficient * am, rho0, h0, scale_h
+            p[P_CD_AM], p[P_RHO0], p[P_H0], p[P_HSCALE] = self.drag_coefficient * am, rho0, h0, scale_h
         if self.srp:
             p[P_SRP] = SOLAR_PRESSURE_N_M2 * self.reflectivity_coefficient * am
             p[P_SUN] = sun_direction_I(self.epoch_utc)

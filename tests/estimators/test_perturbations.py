@@ -120,7 +120,7 @@ def test_drag_at_the_band_base_and_srp_with_shadow():
     p = _params(drag=True, srp=True)
     r = (A_500, 0.0, 0.0)
     v = (0.0, 7600.0, 0.0)
-    rho = pt.atmosphere_density(A_500, RE, p[pt.P_RHO0], p[pt.P_R0], p[pt.P_HSCALE])
+    rho = pt.atmosphere_density(A_500, RE, p[pt.P_RHO0], p[pt.P_H0], p[pt.P_HSCALE])
     assert rho == pytest.approx(6.967e-13, rel=1e-12)  # Vallado Table 8-4 at 500 km
     v_rel = 7600.0 - pt.OMEGA_EARTH_RAD_S * A_500
     np.testing.assert_allclose(pt.drag_acceleration(r, v, 2.2 * 0.01, rho), (0.0, -0.5 * rho * 0.022 * v_rel**2, 0.0), rtol=1e-12)
