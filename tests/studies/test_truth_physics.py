@@ -117,7 +117,7 @@ def test_run_records_the_truth_in_metrics(tmp_path):
     assert cfg["truth"] == "perturbed" and cfg["truth_physics"]["nutation_time_constant_s"] == 86400.0
 
 
-@pytest.mark.parametrize("study", ["truth", "tuning", "init", "proxy", "chain", "combina"])
+@pytest.mark.parametrize("study", ["truth", "tuning", "init", "proxy", "chain", "combina", "coverage"])
 def test_study_configs_default_to_the_torque_free_truth_and_refuse_another_name(tmp_path, study):
     definition = get_study(study)
     assert definition.load().params["truth"] == "torque-free"
