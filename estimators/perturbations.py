@@ -39,14 +39,14 @@ atmosphere).
 
 References
 ----------
-.. [1] Hughes, *Spacecraft Attitude Dynamics*, Wiley 1986 (Dover 2004), ch. 8 (gravity-gradient
-   torque) and ch. 9 (pitch libration, Jacobi integral of a rigid body on a circular orbit);
-   Wie, *Space Vehicle Dynamics and Control*, AIAA 2008, ch. 6.
+.. [1] Hughes, *Spacecraft Attitude Dynamics*, Wiley 1986 (Dover 2004): the gravity-gradient torque,
+   the pitch libration and the Jacobi integral of a rigid body on a circular orbit; Wie, *Space Vehicle
+   Dynamics and Control*, AIAA 2008, ch. 6.
 .. [2] Vallado, *Fundamentals of Astrodynamics and Applications*, 4th ed., Microcosm 2013:
    ch. 8 (J2 acceleration, drag, solar-radiation pressure; Table 8-4, the exponential
    atmosphere), eq. 9-41 (secular nodal regression).
 .. [3] Likins, *Effects of energy dissipation on the free body motions of spacecraft*, NASA
-   JPL TR 32-860, 1966; Hughes 1986 §5.4 (the energy-sink hypothesis: internal dissipation keeps
+   JPL TR 32-860, 1966; Hughes 1986 (the energy-sink hypothesis: internal dissipation keeps
    ``H`` and lowers ``E`` toward the major-axis spin).
 """
 
@@ -103,7 +103,7 @@ class TruthPhysicsError(ValueError):
 
 @numba.njit(cache=True, error_model="numpy")
 def gravity_gradient_torque(r_B, J, mu):
-    """Gravity-gradient torque on a rigid body, ``τ_B = 3μ/r⁵ (r_B × J r_B)`` (Hughes 1986 ch. 8; Wie 2008 ch. 6).
+    """Gravity-gradient torque on a rigid body, ``τ_B = 3μ/r⁵ (r_B × J r_B)`` (Hughes 1986; Wie 2008 ch. 6).
 
     ``r_B``: the body's position from the Earth's centre in its principal frame B (m, 3-tuple);
     ``J``: principal inertia (3-tuple, any unit: the torque comes out in that unit × s⁻²);
@@ -169,7 +169,7 @@ def dissipation_torque(w_B, J, inv_tau):
     """Energy-sink torque ``τ = −(1/τ_d) P⊥ J P⊥ ω`` with ``P⊥ = 1 − Ĥ Ĥᵀ``, ``H = J ω`` (3-tuple in B).
 
     Internal energy dissipation (propellant slosh, flexible parts) keeps the angular momentum and lowers the
-    rotational energy toward the major-axis spin (the energy-sink hypothesis, Likins 1966, Hughes 1986 §5.4).
+    rotational energy toward the major-axis spin (the energy-sink hypothesis, Likins 1966, Hughes 1986).
     This model realises it in a rigid-body state with a torque perpendicular to ``H``, so that
 
     * ``d|H|/dt = Ĥ·τ = 0``: ``|H|`` is kept exactly (the inertial direction of H moves by at most
@@ -302,13 +302,14 @@ class TruthPhysics:
     filters model. ``perturbed`` switches on the gravity-gradient torque on the target, J2 on both orbits, drag on both
     and the nutation damping of the target; solar-radiation pressure stays off (its differential acceleration between
     the two bodies is ~3e-8 m/s², and the shadow boundary is a discontinuity the integrator must step through); switch
-    it on with ``dataclasses.replace(physics, srp=True)``.
+    it on with ``with_terms(physics, srp=True)``.
 
     The servicer's attitude stays torque-free in every model: it is actively controlled, and the filters read it from
     its own attitude determination. Area-to-mass ratios are for the cannonball drag and SRP models: a spent upper stage
     (~0.01 m²/kg: a 1.5 t, 2.4 m × 6.5 m stage tumbling shows ~15 m² on average) and a compact servicer (~0.005 m²/kg).
     ``nutation_time_constant_s`` is chosen, not measured: slow (1 day) so that a 300–5400 s run sees a small but present
-    decay (Explorer 1's whip antennas damped its nutation within one orbit; a rocket body's slosh is far slower).
+    decay (Explorer 1's whip antennas turned its minor-axis spin into a flat spin within its first orbit; a rocket
+    body's slosh is far slower).
     Measured on SC3: the excess energy ``E − E_min`` falls by 0.46 % in 600 s and 3.8 % in 5400 s, while the inertial
     direction of H moves by < 3e-4° (the torque turns with the body and averages out).
     """

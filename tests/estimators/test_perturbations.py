@@ -51,7 +51,7 @@ def _pitch_libration(J, theta0, t):
 
 
 def test_pitch_libration_period_matches_gravity_gradient_theory():
-    """Small pitch libration about the orbit normal: ``ω_lib = n √(3 (B − A)/C)`` (Hughes 1986 ch. 9), to < 1 %."""
+    """Small pitch libration about the orbit normal: ``ω_lib = n √(3 (B − A)/C)`` (Hughes 1986), to < 1 %."""
     J = (1.0, 2.0, 2.5)  # A radial (minimum), B along-track, C about the orbit normal
     t = np.arange(0.0, 11000.0, 5.0)
     _, n, theta = _pitch_libration(J, 0.01, t)
@@ -65,7 +65,7 @@ def test_pitch_libration_period_matches_gravity_gradient_theory():
 
 
 def test_gravity_gradient_keeps_the_jacobi_integral_of_a_tumbling_body():
-    """On a circular Kepler orbit the gravity-gradient attitude motion keeps the Jacobi integral (Hughes 1986 ch. 9)
+    """On a circular Kepler orbit the gravity-gradient attitude motion keeps the Jacobi integral (Hughes 1986)
 
     ``h = ½ ω_relᵀ J ω_rel − ½ n² c3ᵀ J c3 + (3/2) n² c1ᵀ J c1``, ``ω_rel = ω_B − n c3``, with c1 (radial) and c3 (orbit
     normal) in B, while the rotational energy alone changes.
