@@ -33,6 +33,7 @@ import typer
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
+from estimators.perturbations import TRUTH_PHYSICS, get_truth_physics
 from estimators.prior import PROXY_MODES, BodyRatePrior
 from estimators.state import DK, K_STATES, N_ERROR, W_B
 from estimators.tuning import DEFAULT_TUNING, TUNINGS, get_tuning
@@ -180,13 +181,16 @@ def run(
     measurements: Optional[Path] = typer.Option(None,
                                                 help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.",
                                                 callback=v.path_text()),
+    truth: str = typer.Option("torque-free", help="Truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
+                              "J2, drag, nutation damping; recorded in metrics.json).", callback=v.choice(TRUTH_PHYSICS)),
     out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
     setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
-                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out)
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out,
+                   truth=truth)
     results = _monte_carlo(setup)
     metrics = _run_metrics(setup, results)
     metrics["prior_contradicted_s"] = list(results[0][0].prior_contradicted)
@@ -247,7 +251,8 @@ def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
 
 
 def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
-           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out) -> RunSetup:
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out,
+           truth) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
@@ -261,7 +266,8 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     faults = _parse_faults(fault)
     P0 = _parse_p0(p0_diag)
     meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
-    tr = simulate_truth(sc, duration, dt)
+    physics = get_truth_physics(truth)
+    tr = simulate_truth(sc, duration, dt, physics)
     if spin is None and prior != "none":
         spin = BodyRatePrior.from_truth(tr.target[0, W_B], prior_error)
     tuning_name = tuning or DEFAULT_TUNING
@@ -270,7 +276,8 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
               "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
               "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
-              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()}
+              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist(),
+              "truth": physics.name, "truth_physics": physics.as_dict()}
     nav = NavigationSetup(filter_, tun, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, pose_noise=pose_noise,
                           gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, reacquire_window=reacquire_window or None)
     return RunSetup(tr, nav, meas, runs, seed, config)
@@ -334,7 +341,9 @@ def summary_lines(metrics: dict) -> list[str]:
     def pct(x, digits=0):
         return "–" if x is None else f"{100 * x:.{digits}f} %"
 
-    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}, tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
+    truth = cfg.get("truth", "torque-free")  # metrics.json written before the perturbed truth existed: torque-free
+    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}{'' if truth == 'torque-free' else f' ({truth} truth)'}, "
+             f"tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
              f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)",
              f"  {'group':6s}{'t_conv (s)':>12s}{'RMSE':>14s}"]
     for g, c in metrics["components_mean_over_runs"].items():
