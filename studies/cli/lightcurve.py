@@ -37,8 +37,10 @@ def _vector3(text: str, flag: str) -> np.ndarray:
     return vec / np.linalg.norm(vec)
 
 
-#: Most samples of a rendered light curve (duration / cadence): each one is a Mitsuba render.
+#: Most samples of a rendered light curve (duration / cadence): each one is a Mitsuba render; and of a light curve ``prior`` reads.
 MAX_SAMPLES = 10**5
+#: Largest light-curve file ``prior`` reads, bytes (10⁵ rows of up to ~300 characters).
+MAX_PRIOR_BYTES = 32 * 2**20
 
 
 def _validate_render(target: str, axis: str, duration: float, cadence: float, albedo: float | None, pole_ra_dec: str | None):
@@ -122,9 +124,25 @@ def render(
     typer.echo(f"lcnav: wrote {out} ({len(sim.lightcurve)} samples, {renderer.variant})" + (f" and {record}" if record is not None else ""), err=True)
 
 
+#: Largest magnitude (and magnitude error) a light curve may hold: brighter than the Sun (-26.7) or fainter than any survey
+#: limit (about 30) is a unit or parsing mistake (a flux, a 1e300), not a magnitude.
+MAX_ABS_MAG = 50.0
+
+
+def _check_prior_input(path: Path, lc) -> None:
+    """A light curve ``prior`` can handle in bounded time: at most :data:`MAX_SAMPLES` samples (about 4 s), magnitudes within ±50."""
+    if len(lc) > MAX_SAMPLES:
+        raise v.InputError(f"{path.name}: {len(lc)} samples: expected at most {MAX_SAMPLES} samples (bin or split a longer light curve)")
+    for name, values in (("mag", lc.mag), ("mag_err", lc.mag_err)):
+        bad = np.flatnonzero(np.abs(values) > MAX_ABS_MAG)  # NaN (no mag_err) compares False
+        if bad.size:
+            raise v.InputError(f"{path.name}: {name} {v.plain(values[bad[0]])} (sample {int(bad[0])}): expected magnitudes within ±{MAX_ABS_MAG:g}")
+
+
 @lightcurve_app.command("prior")
 def prior(
-    path: Path = typer.Argument(..., help="light curve (.ecsv from 'render', or .csv with time,mag[,mag_err])", callback=v.in_file((".ecsv", ".csv"))),
+    path: Path = typer.Argument(..., help="light curve (.ecsv from 'render', or .csv with time,mag[,mag_err])",
+                                callback=v.in_file((".ecsv", ".csv"), max_bytes=MAX_PRIOR_BYTES)),
     as_json: bool = typer.Option(False, "--json", help="print the prior as JSON"),
     false_alarm_level: float = typer.Option(0.01, help="significance level of a period", callback=v.number(0, 1, lo_open=True, hi_open=True)),
     maxima_per_rotation: int | None = typer.Option(None, help="impose the number of maxima per rotation (1 to 16)", callback=v.count(1, 16)),
@@ -135,6 +153,7 @@ def prior(
     from lightcurves.io import read_lightcurve
 
     lc = read_lightcurve(path)
+    _check_prior_input(path, lc)
     err = lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None
     phase = lc.phase_angle_rad if np.all(np.isfinite(lc.phase_angle_rad)) else None  # a lower bound of the synodic term of the 1-σ
     p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation,

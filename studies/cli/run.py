@@ -180,13 +180,13 @@ def run(
     measurements: Optional[Path] = typer.Option(None,
                                                 help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.",
                                                 callback=v.path_text()),
-    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
+    out: Path = typer.Option(..., help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
     setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
-                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out)
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements)
     results = _monte_carlo(setup)
     metrics = _run_metrics(setup, results)
     # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
@@ -245,7 +245,7 @@ def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
 
 
 def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
-           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out) -> RunSetup:
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
@@ -253,8 +253,6 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     if reacquire_window != 0 and reacquire_window < 3:
         v.fail("--reacquire-window", reacquire_window, "0 (off) or at least 3 measurements")
     pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
-    if out is None:
-        raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
     spin = _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error)
     faults = _parse_faults(fault)
     P0 = _parse_p0(p0_diag)
@@ -275,10 +273,12 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
 
 
 def _monte_carlo(setup: RunSetup) -> list:
-    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i``."""
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar on stderr)."""
+    from tqdm import tqdm
+
     results = []
     tr = setup.truth
-    for i in range(setup.runs):
+    for i in tqdm(range(setup.runs), desc="lcnav run", unit="run", leave=False):
         rng = np.random.default_rng(setup.seed + i)
         run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
         results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))

@@ -122,7 +122,8 @@ class StudyOutcome:
 
 
 def run_study(name: str, *, config_path: Path | None = None, quick: bool = False, out: Path | None = None,
-              scheduler: str | None = None, workers: int | None = None, progress: bool = True) -> StudyOutcome:
+              scheduler: str | None = None, workers: int | None = None, progress: bool = True,
+              connect_timeout_s: float | None = None) -> StudyOutcome:
     """Everything ``lcnav study`` does, as a function (validation first, then the sweep, then the tables)."""
     study = get_study(name)
     check_scheduler(scheduler)
@@ -142,7 +143,8 @@ def run_study(name: str, *, config_path: Path | None = None, quick: bool = False
         write_json(out / "study.json", config.identity())
 
     with output_folder(out, "study", staged=False, check=lambda d: _check_out_dir(d, config)):
-        sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name, prepare=prepare)
+        sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name, prepare=prepare,
+                          connect_timeout_s=connect_timeout_s)
         write_table(out / "runs.parquet", sweep.table, csv=True)
         tables = list(study.summarise(sweep.table, config, out))
         if not tables or tables[0].name != "summary":
