@@ -1,8 +1,11 @@
 """The ``lcnav`` command line.
 
-Each area registers its commands here; the libraries never print. Bad input
-raises a specific exception inside; :func:`main` turns it into one line on
-stderr and exit status 2, with no traceback.
+Each area's module registers its commands (:data:`COMMANDS`); a module is
+imported only when its command runs, so ``lcnav --help`` answers without the
+numerical stack. The libraries never print. Bad input raises a specific
+exception inside; :func:`main` turns it into one line
+``lcnav: error: <value or file>: expected <form>`` on stderr and exit status 2,
+with no traceback (exit statuses: see :func:`main`).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from studies.engine import interrupt
 #: The commands: name -> (module whose ``register(app)`` adds it, the one-line summary ``lcnav --help`` lists).
 #: A module is imported only when its command runs (or its own --help is asked for), so ``lcnav --help``, ``--version``
 #: and a misspelt command answer without importing pandas, rerun, numba, Mitsuba or the studies. Each summary is the
-#: first line of the command's docstring (tests/studies/test_cli_fast.py checks that they agree).
+#: first line of the command's docstring (tests/studies/test_interrupts_and_faults.py checks that they agree).
 COMMANDS = {
     "simulate": ("studies.cli.simulate", "Integrate servicer and target of a scenario; write truth.parquet and truth.rrd."),
     "study": ("studies.cli.study", "Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."),
@@ -194,14 +197,22 @@ def _usage_message(e) -> str:
 
 
 def _is_numerical(e: BaseException) -> bool:
-    """A numerical failure inside lcnav (a bug or an ill-conditioned run), not bad input: LinAlgError and its kin."""
-    return type(e).__name__ == "LinAlgError" or isinstance(e, FloatingPointError | ZeroDivisionError | OverflowError)
+    """numpy's LinAlgError (a ValueError): a numerical failure inside lcnav, not bad input (the other arithmetic errors are no ValueErrors)."""
+    np = sys.modules.get("numpy")  # not imported: the error cannot be numpy's
+    return np is not None and isinstance(e, np.linalg.LinAlgError)
+
+
+def _error(text: str) -> None:
+    """Print ``lcnav: error: TEXT``, unless Ctrl-C came first: then the error is its echo (a KeyboardInterrupt that a C
+    extension turned into a SystemError, a failed Dask run) and :func:`main` says ``lcnav: aborted`` instead."""
+    if not interrupt.interrupted():
+        print(f"lcnav: error: {text}", file=sys.stderr)
 
 
 def _internal(e: BaseException) -> int:
     seed = _params.get("seed")  # the command's --seed (given or default); None for a command without one
-    print(f"lcnav: error: internal error {type(e).__name__}: {one_line(e)}{'' if seed is None else f' (seed {seed})'} "
-          "(a bug in lcnav; please report it with the command line)", file=sys.stderr)
+    _error(f"internal error {type(e).__name__}: {one_line(e)}{'' if seed is None else f' (seed {seed})'} "
+           "(a bug in lcnav; please report it with the command line)")
     return 1
 
 
@@ -211,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
     Exit status: 0 on success; 2 with one line ``lcnav: error: <value or file>: expected <form>`` for bad
     input, a busy or unwritable output folder, or a full disk (nothing is written); 1 when some runs of a study
     failed (named) or, with "internal error" and the run's seed, for a bug or a numerical failure; 130 with
-    one line ``lcnav: aborted`` on Ctrl-C (SIGINT), nothing left that looks finished.
+    one line ``lcnav: aborted`` on Ctrl-C (SIGINT), nothing left that looks finished. Called without ``argv``
+    (the console script), an interrupted command ends the process at once (:func:`studies.engine.interrupt.exit_now`).
     """
     args = sys.argv[1:] if argv is None else [str(a) for a in argv]
     _params.clear()
@@ -221,6 +233,8 @@ def main(argv: list[str] | None = None) -> int:
         except KeyboardInterrupt:
             code = interrupt.EXIT_ABORTED
         if interrupt.interrupted():  # also when a library swallowed the KeyboardInterrupt on the way out
+            if argv is None:  # this process is the lcnav command itself (not a caller in Python): end it here
+                interrupt.exit_now()
             return interrupt.report()
     return code
 
@@ -237,19 +251,19 @@ def _dispatch(args: list[str]) -> int:
     except typer.exceptions.TyperException as e:  # usage errors from the (vendored) click layer
         code = int(getattr(e, "exit_code", 2))
         if e.format_message() if hasattr(e, "format_message") else str(e):
-            print(f"lcnav: error: {one_line(_usage_message(e))}", file=sys.stderr)
+            _error(one_line(_usage_message(e)))
         return code
     except USER_ERRORS as e:
         if _is_numerical(e):
             return _internal(e)
-        print(f"lcnav: error: {one_line(_message(e))}", file=sys.stderr)
+        _error(one_line(_message(e)))
         return 2
     except MemoryError:
-        print("lcnav: error: out of memory; expected smaller sizes (fewer samples, runs or pixels)", file=sys.stderr)
+        _error("out of memory; expected smaller sizes (fewer samples, runs or pixels)")
         return 1
     except Exception as e:  # a study's failed runs (SweepError, named), or the safety net: a bug, not bad input
         if type(e).__name__ == "SweepError":  # some runs failed (their errors named); the others are stored for a re-run
-            print(f"lcnav: error: {one_line(e)}", file=sys.stderr)
+            _error(one_line(e))
             return 1
         return _internal(e)
     return 0

@@ -273,15 +273,17 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
 
 
 def _monte_carlo(setup: RunSetup) -> list:
-    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar on stderr)."""
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar when stderr is a terminal)."""
     from tqdm import tqdm
 
     results = []
     tr = setup.truth
-    for i in tqdm(range(setup.runs), desc="lcnav run", unit="run", leave=False):
-        rng = np.random.default_rng(setup.seed + i)
-        run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
-        results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+    with tqdm(total=setup.runs, desc="lcnav run", unit="run", leave=False, disable=None) as bar:
+        for i in range(setup.runs):
+            rng = np.random.default_rng(setup.seed + i)
+            run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
+            results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+            bar.update(1)
     return results
 
 

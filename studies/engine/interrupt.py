@@ -53,20 +53,42 @@ def report() -> int:
     with _lock:
         if not _said[0]:
             _said[0] = True
+            _close_progress_bars()
             print(MESSAGE, file=sys.stderr, flush=True)
     return EXIT_ABORTED
 
 
-def _abort_now() -> None:
+def _close_progress_bars() -> None:
+    """Close the tqdm bars still open, so that the line starts on a line of its own (not after ``tuning:  0%|...|``)."""
+    tqdm = sys.modules.get("tqdm")
+    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
+        try:
+            bar.close()
+        except Exception:  # noqa: BLE001 - a bar broken by the interrupt: the message matters more
+            pass
+
+
+def exit_now() -> None:
+    """End the process with :data:`EXIT_ABORTED` after ``lcnav: aborted``, without the interpreter's teardown.
+
+    The teardown runs library finalisers; one interrupted mid-way (numba compiling
+    through LLVM) can then crash the process ("double free", SIGABRT) instead of
+    exiting 130.
+    """
     report()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # closed or broken pipe: nothing more to say
+            pass
     os._exit(EXIT_ABORTED)
 
 
 def _handler(signum, frame) -> None:
     if _interrupted.is_set():  # a second Ctrl-C: stop at once
-        _abort_now()
+        exit_now()
     _interrupted.set()
-    timer = threading.Timer(GRACE_S, _abort_now)
+    timer = threading.Timer(GRACE_S, exit_now)
     timer.daemon = True
     timer.start()
     raise KeyboardInterrupt

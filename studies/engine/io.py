@@ -55,10 +55,9 @@ def _is_no_space(e: OSError) -> bool:
     return isinstance(e, NoSpaceError) or e.errno in (errno.ENOSPC, errno.EDQUOT) or f"errno {errno.ENOSPC}]" in str(e).lower()
 
 
-def no_space(folder, e: OSError) -> NoSpaceError:
-    """A :class:`NoSpaceError` naming ``folder`` for the full-disk error ``e``."""
-    return NoSpaceError(errno.ENOSPC, f"no space left on device: expected a folder on a file system with free space",
-                        str(folder))
+def no_space(folder) -> NoSpaceError:
+    """A :class:`NoSpaceError` naming ``folder``, the folder whose file system is full."""
+    return NoSpaceError(errno.ENOSPC, "no space left on device: expected a folder on a file system with free space", str(folder))
 
 
 @contextlib.contextmanager
@@ -68,7 +67,7 @@ def _full_disk_names(folder) -> Iterator[None]:
         yield
     except OSError as e:
         if _is_no_space(e):
-            raise no_space(folder, e) from None
+            raise no_space(folder) from None
         raise
 
 

@@ -141,6 +141,12 @@ CONNECT_TIMEOUT_S = 20.0
 MAX_CONNECT_TIMEOUT_S = 600.0
 
 
+#: Run by each local worker process as it starts (a Dask preload given as script text): a terminal's Ctrl-C goes to the
+#: whole process group, and a worker that took it printed its own KeyboardInterrupt traceback over ``lcnav: aborted``.
+#: The lcnav process alone handles it (:mod:`studies.engine.interrupt`) and closes the cluster, which stops the workers.
+WORKER_IGNORES_SIGINT = "import signal  # lcnav: Ctrl-C is for the lcnav process\nsignal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float | None = None):
     """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes.
@@ -162,13 +168,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
         with client:
             yield client
         return
-    with LocalCluster(
-        n_workers=workers or default_workers(),
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-    ) as cluster, Client(cluster) as client:
+    with LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR, preload=[WORKER_IGNORES_SIGINT]) as cluster, Client(cluster) as client:
         yield client
 
 
