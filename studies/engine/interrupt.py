@@ -53,19 +53,21 @@ def report() -> int:
     with _lock:
         if not _said[0]:
             _said[0] = True
-            _close_progress_bars()
-            print(MESSAGE, file=sys.stderr, flush=True)
+            print(_fresh_line() + MESSAGE, file=sys.stderr, flush=True)
     return EXIT_ABORTED
 
 
-def _close_progress_bars() -> None:
-    """Close the tqdm bars still open, so that the line starts on a line of its own (not after ``tuning:  0%|...|``)."""
-    tqdm = sys.modules.get("tqdm")
-    for bar in list(getattr(getattr(tqdm, "tqdm", None), "_instances", ())):
-        try:
-            bar.close()
-        except Exception:  # noqa: BLE001 - a bar broken by the interrupt: the message matters more
-            pass
+def _fresh_line() -> str:
+    """What puts the message on a line of its own after a progress bar the interrupt left unfinished (``tuning:  0%|...|``).
+
+    On a terminal: back to column 0 and erase the bar (``\r``, ANSI erase-in-line); in a file or pipe, a line break if
+    a bar may have been drawn (tqdm loaded); else nothing.
+    """
+    try:
+        tty = sys.stderr.isatty()
+    except (AttributeError, ValueError):  # replaced or closed stream
+        tty = False
+    return "\r\x1b[K" if tty else "\n" if "tqdm" in sys.modules else ""
 
 
 def exit_now() -> None:
