@@ -259,7 +259,7 @@ def _dispatch(args: list[str]) -> int:
         _error(one_line(_message(e)))
         return 2
     except MemoryError:
-        _error("out of memory; expected smaller sizes (fewer samples, runs or pixels)")
+        _error("out of memory: expected smaller sizes (fewer samples, runs or pixels)")
         return 1
     except Exception as e:  # a study's failed runs (SweepError, named), or the safety net: a bug, not bad input
         if type(e).__name__ == "SweepError":  # some runs failed (their errors named); the others are stored for a re-run

@@ -74,32 +74,32 @@ def _read_measurements(path: Path, t_span: tuple[float, float]):
             v.check_no_nul(where, path.read_bytes())
             df = pd.read_csv(path)
     except (ValueError, OSError, ImportError) as e:  # pyarrow/pandas parse errors are ValueErrors
-        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}); expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
+        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}): expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
     missing = [c for c in MEASUREMENT_COLUMNS if c not in df.columns]
     if missing:
-        raise v.InputError(f"{where} lacks columns {missing}; expected {', '.join(MEASUREMENT_COLUMNS)}")
+        raise v.InputError(f"{where} lacks columns {missing}: expected {', '.join(MEASUREMENT_COLUMNS)}")
     if len(df) < 2:
-        raise v.InputError(f"{where} holds {len(df)} row(s); expected at least 2 measurements")
+        raise v.InputError(f"{where} holds {len(df)} row(s): expected at least 2 measurements")
     for c in MEASUREMENT_COLUMNS:
         col = df[c]
         if col.dtype.kind not in "fiu":
             bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
-            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
+            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}: expected decimal numbers")
     a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
     if bad.size:
-        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell; expected finite measurements")
+        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell: expected finite measurements")
     t = a[:, 0]
     if np.any(np.diff(t) <= 0):
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
-        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}; expected strictly increasing times")
+        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}: expected strictly increasing times")
     if not np.any((t >= t_span[0]) & (t <= t_span[1])):
-        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s; expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
+        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s: expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
     q = a[:, 1:5]
     if np.any(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-6):
-        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...; expected unit quaternions")
+        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...: expected unit quaternions")
     if np.any(np.abs(a[:, 5:8]) > 1e7):
-        raise v.InputError(f"{where}: a position beyond 1e7 m; expected relative positions within 10000 km")
+        raise v.InputError(f"{where}: a position beyond 1e7 m: expected relative positions within 10000 km")
     return t, q, a[:, 5:8]
 
 
@@ -112,9 +112,9 @@ def _read_prior_json(path: Path, axis: str):
     try:
         d = json.loads(data)
     except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
-        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}); expected an object from `lcnav lightcurve prior --json`") from None
+        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}): expected an object from `lcnav lightcurve prior --json`") from None
     if not isinstance(d, dict):
-        raise v.InputError(f"{where} holds a JSON {type(d).__name__}; expected an object with rate_rad_s and rate_sigma_rad_s")
+        raise v.InputError(f"{where} holds a JSON {type(d).__name__}: expected an object with rate_rad_s and rate_sigma_rad_s")
     if d.get("rate_rad_s") is None:
         raise v.InputError(f"prior without a rate: {where} has no rate_rad_s (no significant period in the light curve)")
     max_rate = np.radians(MAX_RATE_DEG_S)
@@ -215,13 +215,13 @@ class RunSetup:
 
 def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyRatePrior | None:
     if prior_json is not None and prior_rate_deg_s is not None:
-        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given: expected the prior as one of them")
     if prior_json is not None:
         return _read_prior_json(prior_json, prior_axis)
     if prior_rate_deg_s is None:
         return None
     if not prior_rate_deg_s.strip():
-        raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+        raise v.InputError("prior without a rate: --prior-rate-deg-s '': expected 'wx,wy,wz' in deg/s")
     w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
     return BodyRatePrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
 

@@ -35,7 +35,7 @@ def simulate(
     if dt > duration or duration / dt > MAX_STEPS:
         v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} steps")
     if out is None:
-        raise v.InputError("--out: missing; expected the output folder for truth.parquet and truth.rrd")
+        raise v.InputError("--out: missing: expected the output folder for truth.parquet and truth.rrd")
     truth = simulate_truth(sc, duration, dt)
     df = truth.table()
     df.attrs = {"scenario": sc.name, "seed": int(seed), "duration_s": duration, "dt_s": dt}

@@ -33,7 +33,7 @@ GRACE_S = 30.0
 MESSAGE = "lcnav: aborted"
 
 _interrupted = threading.Event()
-_lock = threading.Lock()
+_lock = threading.RLock()  # re-entrant: a second Ctrl-C may arrive (in the same thread) while the line is printed
 _said = [False]  # the one line printed for this command
 
 

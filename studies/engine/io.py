@@ -212,7 +212,7 @@ def _lock(path: Path, what: str) -> Iterator[None]:
             os.close(fd)
             if e.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                 raise
-            raise FolderBusy(f"{what}: another lcnav is writing to it (pid {holder}); expected a path no other lcnav is using "
+            raise FolderBusy(f"{what}: another lcnav is writing to it (pid {holder}): expected a path no other lcnav is using "
                              "(wait for it to finish or choose another)") from None
         try:
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
@@ -222,7 +222,7 @@ def _lock(path: Path, what: str) -> Iterator[None]:
             break
         os.close(fd)  # locked a lock file that its holder removed meanwhile: try the new one
     else:  # pragma: no cover - 100 lost races in a row
-        raise FolderBusy(f"{what}: could not take its lock; expected a path no other lcnav is using")
+        raise FolderBusy(f"{what}: could not take its lock: expected a path no other lcnav is using")
     try:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)

@@ -80,7 +80,7 @@ def test_bad_config_one_line_naming_the_field(tmp_path, capsys, edit, message):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["nosuch"], "unknown study 'nosuch'; known studies: truth"),
+        (["nosuch"], "unknown study 'nosuch': expected one of the known studies: truth"),
         (["truth", "--workers", "0"], "--workers 0: expected an integer within [1, "),
         (["truth", "--scheduler", "localhost:8786"], "--scheduler 'localhost:8786': expected the form tcp://HOST:PORT"),
         (["truth", "--config", "/nonexistent/x.toml"], "--config '/nonexistent/x.toml': no such file"),

@@ -297,7 +297,7 @@ def test_render_to_a_bare_file_takes_a_lock(tmp_path, capsys):
         code = main(["lightcurve", "render", "--target", "sphere", "--duration", "40", "--cadence", "2", "--resolution", "4",
                      "--variant", "scalar_rgb", "--out", str(out)])
         err = capsys.readouterr().err.strip().splitlines()
-        assert code == 2 and err[-1] == f"lcnav: error: '{out}': another lcnav is writing to it (pid {os.getpid()}); expected a path no other " \
+        assert code == 2 and err[-1] == f"lcnav: error: '{out}': another lcnav is writing to it (pid {os.getpid()}): expected a path no other " \
                                          "lcnav is using (wait for it to finish or choose another)"
         assert not out.exists()
     assert list(tmp_path.iterdir()) == []  # the lock file went with the lock

@@ -103,7 +103,7 @@ def test_int_of_inf_is_a_bound_not_an_overflow(tmp_path, capsys):
     ('{"rate_rad_s": [1], "rate_sigma_rad_s": 0.01}', "rate_rad_s [1]: expected a finite number"),
     ('{"rate_rad_s": 0.1, "rate_sigma_rad_s": true}', "rate_sigma_rad_s True: expected a finite number"),
     ('{"rate_rad_s": 1e308, "rate_sigma_rad_s": 0.01}', "rate_rad_s 1e+308: expected"),
-    ('[0.1, 0.01]', "holds a JSON list; expected an object with rate_rad_s and rate_sigma_rad_s"),
+    ('[0.1, 0.01]', "holds a JSON list: expected an object with rate_rad_s and rate_sigma_rad_s"),
     ('[' * 100000 + ']' * 100000, "not JSON (RecursionError"),
     ('{"rate_rad_s": NaN, "rate_sigma_rad_s": 0.01}', "rate_rad_s nan: expected a finite number"),
 ])
@@ -162,10 +162,10 @@ def test_run_option_bounds(tmp_path, capsys, flag, value, needle):
 
 
 @pytest.mark.parametrize("content, needle", [
-    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n", "holds 0 row(s); expected at least 2 measurements"),
+    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n", "holds 0 row(s): expected at least 2 measurements"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,\n", "row 1 has a NaN, Inf or empty cell"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,0x10\n",
-     "column r_ST_T_z_m holds '0x10'; expected decimal numbers"),
+     "column r_ST_T_z_m holds '0x10': expected decimal numbers"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n5,1,0,0,0,1,2,3\n5,1,0,0,0,1,2,3\n", "expected strictly increasing times"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n500,1,0,0,0,1,2,3\n501,1,0,0,0,1,2,3\n",
      "expected measurements within the run, 0 to 30 s"),
