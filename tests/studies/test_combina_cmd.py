@@ -28,7 +28,8 @@ def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
     "args, message",
     [
         (["--target", "cube"], "--target 'cube': expected a body: box-wing or atlas-centaur"),
-        (["--target", "symmetric"], "--target 'symmetric': expected a body: box-wing or atlas-centaur (renamed: --target symmetric is now --target atlas-centaur)"),
+        (["--target", "symmetric"], "--target 'symmetric': expected a body: box-wing or atlas-centaur (renamed: --target symmetric is now "
+         "--target atlas-centaur)"),
         (["--measurements", "rendered"], "--measurements 'rendered': expected --pose-source simulated|rendered (renamed;"),
         (["--rate-hz", "0"], "--rate-hz 0.0: expected a finite number within (0, 10] Hz"),
         (["--rate-hz", "-1"], "--rate-hz -1.0: expected a finite number within (0, 10] Hz"),
