@@ -38,7 +38,7 @@ def make_filter(name: str, model, x0, P0, Q, **kwargs):
     try:
         cls = FILTERS[name]
     except KeyError:
-        raise ValueError(f"unknown filter {name!r}; expected one of {sorted(FILTERS)}") from None
+        raise ValueError(f"unknown filter {name!r}: expected one of {sorted(FILTERS)}") from None
     return cls(model, x0, P0, Q, **kwargs)
 
 

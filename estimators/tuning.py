@@ -218,4 +218,4 @@ def get_tuning(name: str) -> Tuning:
     except KeyError:
         if name in RENAMED:
             raise ValueError(f"tuning {name!r} is now called {RENAMED[name]!r} ({TUNINGS[RENAMED[name]].description})") from None
-        raise ValueError(f"unknown tuning {name!r}; expected one of {sorted(TUNINGS)}") from None
+        raise ValueError(f"unknown tuning {name!r}: expected one of {sorted(TUNINGS)}") from None

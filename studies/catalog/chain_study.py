@@ -87,14 +87,14 @@ _RUN_FIELDS = ("filters", "target", "observation_duration_s", "cadence_s", "rend
 def check(params: dict) -> None:
     """Cross-field rules: samples in the light curve, dt within the runs, the fault window within the proxy run."""
     if params["observation_duration_s"] / params["cadence_s"] < 20:
-        raise ConfigError(f"field 'cadence_s' must give at least 20 light-curve samples over observation_duration_s = "
-                          f"{params['observation_duration_s']} s, got {params['cadence_s']}")
+        raise ConfigError(f"cadence_s {params['cadence_s']}: expected at least 20 light-curve samples over observation_duration_s = "
+                          f"{params['observation_duration_s']} s")
     for e in params["experiments"]:
         if params["dt_s"] > params[f"{e}_duration_s"]:
-            raise ConfigError(f"field 'dt_s' must not exceed {e}_duration_s = {params[f'{e}_duration_s']} s, got {params['dt_s']}")
+            raise ConfigError(f"dt_s {params['dt_s']}: expected at most {e}_duration_s = {params[f'{e}_duration_s']} s")
     if "proxy" in params["experiments"] and params["fault_start_s"] + params["fault_duration_s"] + params["settling_s"] >= params["proxy_duration_s"]:
-        raise ConfigError(f"field 'proxy_duration_s' must exceed fault_start_s + fault_duration_s + settling_s = "
-                          f"{params['fault_start_s'] + params['fault_duration_s'] + params['settling_s']} s, got {params['proxy_duration_s']}")
+        raise ConfigError(f"proxy_duration_s {params['proxy_duration_s']}: expected more than fault_start_s + fault_duration_s + settling_s = "
+                          f"{params['fault_start_s'] + params['fault_duration_s'] + params['settling_s']} s")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:

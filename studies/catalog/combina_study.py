@@ -67,8 +67,8 @@ UNIT_LABEL = {"r": "m", "v": "m/s", "sigma": "MRP", "w": "rad/s", "k": "-", "phi
 def check(params: dict) -> None:
     """At least two measurements per run."""
     if params["duration_TU"] * TU < 2 * params["measurement_period_s"]:
-        raise ConfigError(f"field 'duration_TU' must cover at least two measurement periods "
-                          f"({2 * params['measurement_period_s']:g} s), got {params['duration_TU']} TU")
+        raise ConfigError(f"duration_TU {params['duration_TU']}: expected at least two measurement periods "
+                          f"({2 * params['measurement_period_s']:g} s)")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:

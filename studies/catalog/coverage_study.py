@@ -71,10 +71,10 @@ def check(params: dict) -> None:
     """``k_range`` is ``[low, high]`` with ``low < high``; a run has at least ``n_last`` measurements."""
     k = params["k_range"]
     if len(k) != 2 or not k[0] < k[1]:
-        raise ConfigError(f"field 'k_range' must be [low, high] with low < high, got {k}")
+        raise ConfigError(f"k_range {k}: expected [low, high] with low < high")
     n = int(np.floor(params["horizon_orbits"] * 2 * np.pi * TU * params["measurement_rate_hz"]))
     if n < params["n_last"]:
-        raise ConfigError(f"field 'horizon_orbits' gives {n} measurements per run, fewer than n_last = {params['n_last']}")
+        raise ConfigError(f"horizon_orbits {params['horizon_orbits']} ({n} measurements per run): expected at least n_last = {params['n_last']} measurements")
 
 
 def n_runs_at(config: StudyConfig, rate_rad_s: float) -> int:
@@ -119,7 +119,7 @@ def draw_inertia_ratios(rng: np.random.Generator, k_range, physical: bool) -> np
         k = rng.uniform(*k_range, size=2)
         if not physical or physical_k(k):
             return k
-    raise ConfigError(f"field 'k_range' {list(k_range)}: no physical inertia ratios in 1000 draws")
+    raise ConfigError(f"k_range {list(k_range)}: no physical inertia ratios in 1000 draws: expected a range holding physical inertia ratios")
 
 
 def execute(spec: RunSpec, workdir: Path) -> dict:

@@ -49,7 +49,7 @@ def check_common(params: dict) -> None:
     """``inertia_guess_range`` is ``[lo, hi]`` with ``lo <= hi``."""
     lo_hi = params["inertia_guess_range"]
     if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
-        raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+        raise ConfigError(f"inertia_guess_range {lo_hi}: expected [lo, hi] with 0 < lo <= hi")
 
 
 def pose_noise(params) -> PoseNoise:

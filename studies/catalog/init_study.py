@@ -60,7 +60,7 @@ ARM_LABEL = {False: "", True: " +prior"}
 def check(params: dict) -> None:
     """``dt_s <= duration_s``; the inertia guess range is ordered."""
     if params["dt_s"] > params["duration_s"] / 2:
-        raise ConfigError(f"field 'dt_s' must be at most half of duration_s = {params['duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most half of duration_s = {params['duration_s']} s")
     check_common(params)
 
 

@@ -70,9 +70,9 @@ def check(params: dict) -> None:
     """Cross-field rules: ``rk4_dt_s`` divides ``dt_s`` and ``dt_s <= duration_s``."""
     ratio = params["dt_s"] / params["rk4_dt_s"]
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        raise ConfigError(f"field 'rk4_dt_s' must divide dt_s = {params['dt_s']} s into whole steps, got {params['rk4_dt_s']}")
+        raise ConfigError(f"rk4_dt_s {params['rk4_dt_s']}: expected a divisor of dt_s = {params['dt_s']} s (whole steps)")
     if params["dt_s"] > params["duration_s"]:
-        raise ConfigError(f"field 'dt_s' must not exceed duration_s = {params['duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most duration_s = {params['duration_s']} s")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:

@@ -75,32 +75,32 @@ def _read_measurements(path: Path, t_span: tuple[float, float]):
             v.check_no_nul(where, path.read_bytes())
             df = pd.read_csv(path)
     except (ValueError, OSError, ImportError) as e:  # pyarrow/pandas parse errors are ValueErrors
-        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}); expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
+        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}): expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
     missing = [c for c in MEASUREMENT_COLUMNS if c not in df.columns]
     if missing:
-        raise v.InputError(f"{where} lacks columns {missing}; expected {', '.join(MEASUREMENT_COLUMNS)}")
+        raise v.InputError(f"{where} lacks columns {missing}: expected {', '.join(MEASUREMENT_COLUMNS)}")
     if len(df) < 2:
-        raise v.InputError(f"{where} holds {len(df)} row(s); expected at least 2 measurements")
+        raise v.InputError(f"{where} holds {len(df)} row(s): expected at least 2 measurements")
     for c in MEASUREMENT_COLUMNS:
         col = df[c]
         if col.dtype.kind not in "fiu":
             bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
-            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
+            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}: expected decimal numbers")
     a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
     if bad.size:
-        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell; expected finite measurements")
+        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell: expected finite measurements")
     t = a[:, 0]
     if np.any(np.diff(t) <= 0):
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
-        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}; expected strictly increasing times")
+        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}: expected strictly increasing times")
     if not np.any((t >= t_span[0]) & (t <= t_span[1])):
-        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s; expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
+        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s: expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
     q = a[:, 1:5]
     if np.any(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-6):
-        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...; expected unit quaternions")
+        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...: expected unit quaternions")
     if np.any(np.abs(a[:, 5:8]) > 1e7):
-        raise v.InputError(f"{where}: a position beyond 1e7 m; expected relative positions within 10000 km")
+        raise v.InputError(f"{where}: a position beyond 1e7 m: expected relative positions within 10000 km")
     return t, q, a[:, 5:8]
 
 
@@ -113,9 +113,9 @@ def _read_prior_json(path: Path, axis: str):
     try:
         d = json.loads(data)
     except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
-        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}); expected an object from `lcnav lightcurve prior --json`") from None
+        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}): expected an object from `lcnav lightcurve prior --json`") from None
     if not isinstance(d, dict):
-        raise v.InputError(f"{where} holds a JSON {type(d).__name__}; expected an object with rate_rad_s and rate_sigma_rad_s")
+        raise v.InputError(f"{where} holds a JSON {type(d).__name__}: expected an object with rate_rad_s and rate_sigma_rad_s")
     if d.get("rate_rad_s") is None:
         raise v.InputError(f"prior without a rate: {where} has no rate_rad_s (no significant period in the light curve)")
     max_rate = np.radians(MAX_RATE_DEG_S)
@@ -183,13 +183,13 @@ def run(
                                                 callback=v.path_text()),
     truth: str = typer.Option("torque-free", help="Truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
                               "J2, drag, nutation damping; recorded in metrics.json).", callback=v.choice(TRUTH_PHYSICS)),
-    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
+    out: Path = typer.Option(..., help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
     setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
-                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out,
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements,
                    truth=truth)
     results = _monte_carlo(setup)
     metrics = _run_metrics(setup, results)
@@ -221,13 +221,13 @@ class RunSetup:
 
 def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyRatePrior | None:
     if prior_json is not None and prior_rate_deg_s is not None:
-        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given: expected the prior as one of them")
     if prior_json is not None:
         return _read_prior_json(prior_json, prior_axis)
     if prior_rate_deg_s is None:
         return None
     if not prior_rate_deg_s.strip():
-        raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+        raise v.InputError("prior without a rate: --prior-rate-deg-s '': expected 'wx,wy,wz' in deg/s")
     w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
     return BodyRatePrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
 
@@ -251,7 +251,7 @@ def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
 
 
 def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
-           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out,
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements,
            truth) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
@@ -260,8 +260,6 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     if reacquire_window != 0 and reacquire_window < 3:
         v.fail("--reacquire-window", reacquire_window, "0 (off) or at least 3 measurements")
     pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
-    if out is None:
-        raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
     spin = _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error)
     faults = _parse_faults(fault)
     P0 = _parse_p0(p0_diag)
@@ -295,13 +293,17 @@ def _warn_prior_contradicted(results: list) -> None:
 
 
 def _monte_carlo(setup: RunSetup) -> list:
-    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i``."""
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar when stderr is a terminal)."""
+    from tqdm import tqdm
+
     results = []
     tr = setup.truth
-    for i in range(setup.runs):
-        rng = np.random.default_rng(setup.seed + i)
-        run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
-        results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+    with tqdm(total=setup.runs, desc="lcnav run", unit="run", leave=False, disable=None) as bar:
+        for i in range(setup.runs):
+            rng = np.random.default_rng(setup.seed + i)
+            run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
+            results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+            bar.update(1)
     return results
 
 

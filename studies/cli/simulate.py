@@ -38,7 +38,7 @@ def simulate(
     if dt > duration or duration / dt > MAX_STEPS:
         v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} steps")
     if out is None:
-        raise v.InputError("--out: missing; expected the output folder for truth.parquet and truth.rrd")
+        raise v.InputError("--out: missing: expected the output folder for truth.parquet and truth.rrd")
     physics = get_truth_physics(truth)
     tr = simulate_truth(sc, duration, dt, physics)
     df = tr.table()

@@ -97,7 +97,7 @@ N_RAD_S = SCENARIO.mean_motion_rad_s
 UNITS = ScaledUnits(TU_s=TU_COMBINA_S, LU_m=LU_COMBINA_M)
 TU, LU = UNITS.TU_s, UNITS.LU_m
 K_TARGETS = {"asymmetric": np.array(SCENARIO.k), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
-#: The meshes rendered for ``--measurements rendered`` (their own inertia ratios then apply).
+#: The meshes rendered for ``lcnav combina --pose-source rendered`` (their own inertia ratios then apply); ``--target`` names them.
 MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
 SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48

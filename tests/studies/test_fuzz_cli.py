@@ -143,7 +143,7 @@ COMMANDS = {
              "--gate-confidence": "number", "--gate-start": "number", "--reacquire-window": "number", "--out": "path",
              "--measurements": "path", "--prior-json": "path", "--truth": "text"}),
     "combina": (["combina", "--duration-tu", "0.1", "--out", "{out}"],
-                {"--target": "text", "--measurements": "text", "--duration-tu": "number", "--rate-hz": "number", "--seed": "number",
+                {"--target": "text", "--pose-source": "text", "--duration-tu": "number", "--rate-hz": "number", "--seed": "number",
                  "--prior": "text", "--prior-error": "number", "--axis-frame": "text", "--out": "path"}),
     "render": (["lightcurve", "render", "--duration", "40", "--cadence", "1", "--out", "{root}/lc.ecsv"],
                {"--target": "text", "--axis": "text", "--rate-deg-s": "number", "--duration": "number", "--cadence": "number", "--seed": "number",
