@@ -66,6 +66,8 @@ class NavigationRun:
     reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
     #: ``(t, nodes, usable)`` of each re-linearisation about the full-information fit (:mod:`estimators.batch`)
     relinearizations: tuple[tuple[float, int, bool], ...] = ()
+    #: UKF: sigma-point draws whose covariance had no Cholesky factor and was floored (:func:`estimators.ukf.scaled_cholesky`)
+    regularizations: int = 0
 
 
 def run_navigation(
@@ -156,6 +158,7 @@ def run_navigation(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
         relinearizations=tuple(relin.events) if relin is not None else (),
+        regularizations=filt.regularizations,
     )
 
 
