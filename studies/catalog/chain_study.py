@@ -42,6 +42,7 @@ import pandas as pd
 from estimators.navigation import FILTERS
 from lightcurves.targets import TARGETS
 from studies.catalog.figures import plot_spectrum, pyplot, save_png
+from studies.catalog.filter_common import TRUTH_FIELD
 from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate_arm, record_lightcurve, record_run, render_prior
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.sim.metrics import GROUPS
@@ -76,10 +77,11 @@ FIELDS: dict[str, Field] = {
     "gate_start_s": Field("float", "Gates test measurements from this time on, s.", ge=0, default=10.0),
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write lightcurve.rrd and one recording per filter and arm in every run.", default=True),
+    "truth": TRUTH_FIELD,
 }
 
 _RUN_FIELDS = ("filters", "target", "observation_duration_s", "cadence_s", "render_resolution_px", "render_spp", "false_alarm_level",
-               "dt_s", "gate_confidence", "gate_start_s", "record")
+               "dt_s", "gate_confidence", "gate_start_s", "record", "truth")
 
 
 def check(params: dict) -> None:
@@ -131,7 +133,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         faults = ((p["fault_start_s"], p["fault_duration_s"]),)
         rmse_from = p["fault_start_s"] + p["fault_duration_s"] + p["settling_s"]
     arms = ("none", "tuning", p["experiment"]) if rendered.spin is not None else ("none",)
-    truth = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    truth = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     row["n_steps"] = len(truth.t)
     for f in p["filters"]:
         for arm in arms:

@@ -11,13 +11,19 @@ import numpy as np
 import pandas as pd
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.perturbations import TRUTH_PHYSICS
 from estimators.prior import BodyRatePrior
 from studies.catalog.figures import pyplot, save_png
 from studies.engine.config import ConfigError, Field
 
 
 #: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
+#: The truth's physics (every study that simulates a truth): what the filters model, or with unmodelled perturbations.
+TRUTH_FIELD = Field("str", "Truth physics: torque-free (Kepler, torque-free: what the filters model) or perturbed (gravity gradient, J2, drag, "
+                    "nutation damping; estimators.perturbations).", choices=TRUTH_PHYSICS, default="torque-free")
+
 COMMON_FIELDS: dict[str, Field] = {
+    "truth": TRUTH_FIELD,
     "threshold_att_deg": Field("float", "Convergence threshold of the attitude error, deg.", gt=0, default=2.0),
     "threshold_rate_deg_s": Field("float", "Convergence threshold of the rate error, deg/s.", gt=0, default=2.0),
     "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),

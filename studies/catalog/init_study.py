@@ -75,7 +75,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     w_true = tr.target[0, W_B]
     prior = draw_prior(w_true, p["prior_rate_error"], p["prior_error_direction"], rng)  # drawn in both arms (paired streams)
     setup = NavigationSetup(

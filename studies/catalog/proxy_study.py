@@ -93,7 +93,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     prior = draw_prior(tr.target[0, W_B], p["prior_rate_error"], p["prior_error_direction"], rng)
     scale = p["fault_sigma_scale"]
     setup = NavigationSetup(

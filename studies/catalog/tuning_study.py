@@ -128,7 +128,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     setup = NavigationSetup(p["filter"], grid_tuning(p), pose_noise=pose_noise(p), gate_confidence=p["gate_confidence"],
                             gate_start_s=p["gate_start_s"], consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (),
                             inertia_range=tuple(p["inertia_guess_range"]))

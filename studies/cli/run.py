@@ -41,6 +41,7 @@ import typer
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
+from estimators.perturbations import TRUTH_PHYSICS, get_truth_physics
 from estimators.prior import PROXY_MODES, BodyRatePrior
 from estimators.state import DK, K_STATES, N_ERROR, W_B
 from estimators.tuning import DEFAULT_TUNING, TUNINGS, get_tuning
@@ -224,6 +225,8 @@ def run(
                                                 callback=v.path_text()),
     truth_file: Optional[Path] = typer.Option(None, help="With --measurements: the truth to score against (truth.parquet of `lcnav simulate`, "
                                               "a row at every filter time).", callback=v.path_text()),
+    truth: str = typer.Option("torque-free", help="Truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
+                              "J2, drag, nutation damping; recorded in metrics.json).", callback=v.choice(TRUTH_PHYSICS)),
     out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
@@ -231,7 +234,7 @@ def run(
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
                    gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements,
-                   truth_file=truth_file, out=out)
+                   truth_file=truth_file, out=out, truth=truth)
     results = _monte_carlo(setup)
     metrics = _run_metrics(setup, results)
     # ---- write (into a staging folder under the --out lock; moved into --out once all three are whole)
@@ -291,7 +294,8 @@ def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
 
 
 def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
-           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, truth_file, out) -> RunSetup:
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, truth_file, out,
+           truth) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
@@ -309,7 +313,8 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
         v.fail("--truth-file", str(truth_file), "it with --measurements (a simulated run is scored against its own truth)")
     if meas is not None and spin is None and prior != "none":
         v.fail("--prior", prior, "with --measurements, the prior's rate from --prior-json or --prior-rate-deg-s (the simulated truth is not the file's)")
-    tr = simulate_truth(sc, duration, dt)
+    physics = get_truth_physics(truth)
+    tr = simulate_truth(sc, duration, dt, physics)
     if truth_file is not None:
         tr = dataclasses.replace(tr, x=_read_truth_file(truth_file, tr.t, sc.name))
     if spin is None and prior != "none":
@@ -321,7 +326,8 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
               "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
               "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
               "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist(),
-              "truth": "simulated" if meas is None else (None if truth_file is None else str(truth_file))}
+              "truth": physics.name, "truth_physics": physics.as_dict(),
+              "scored_against": "simulated" if meas is None else (None if truth_file is None else str(truth_file))}
     nav = NavigationSetup(filter_, tun, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, pose_noise=pose_noise,
                           gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, reacquire_window=reacquire_window or None)
     return RunSetup(tr, nav, meas, runs, seed, config, scored=meas is None or truth_file is not None)
@@ -387,7 +393,9 @@ def summary_lines(metrics: dict) -> list[str]:
     def pct(x, digits=0):
         return "–" if x is None else f"{100 * x:.{digits}f} %"
 
-    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}, tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
+    truth = cfg.get("truth", "torque-free")  # metrics.json written before the perturbed truth existed: torque-free
+    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}{'' if truth == 'torque-free' else f' ({truth} truth)'}, "
+             f"tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
              f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)"]
     nis, gate = metrics["nis_fraction_in_95"], metrics["gate_rejection_rate"]
     nis_text = f"NIS in band {', '.join(f'{s} {pct(v)}' for s, v in nis.items())}"

@@ -223,6 +223,19 @@ def one_of(values: Iterable):
     return _callback(check)
 
 
+def choice(values: Iterable[str]):
+    """Typer callback: one of a few names, the expected form spelt ``a, b or c`` (``--truth 'x': expected torque-free or perturbed``)."""
+    values = tuple(values)
+    words = values[0] if len(values) == 1 else ", ".join(values[:-1]) + " or " + values[-1]
+
+    def check(what, x):
+        if x not in values:
+            fail(what, x, words)
+        return x
+
+    return _callback(check)
+
+
 def text(choices: Iterable[str] | None = None, max_len: int = MAX_TEXT):
     """Typer callback: printable text (one of ``choices`` if given)."""
     choices = None if choices is None else tuple(choices)

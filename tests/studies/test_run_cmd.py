@@ -159,7 +159,7 @@ def test_measurement_file_is_scored_only_against_its_truth_file(tmp_path, capsys
     for key in ("components", "filter_components", "components_mean_over_runs", "nees", "nees_fraction_in_95"):
         assert key not in m
     assert set(m["nis_fraction_in_95"]) == {"attitude", "position"} and set(m["gate_rejection_rate"]) == {"attitude", "position"}
-    assert m["config"]["truth"] is None
+    assert m["config"]["scored_against"] is None
     assert "NEES" not in printed and "RMSE" not in printed and "NIS in band" in printed
     assert all(0.0 <= f <= 1.0 for f in m["nis_fraction_in_95"].values())  # 11 steps after the 60 s settling
     df = pd.read_parquet(tmp_path / "blind" / "states.parquet")
@@ -168,7 +168,7 @@ def test_measurement_file_is_scored_only_against_its_truth_file(tmp_path, capsys
 
     assert main([*base, "--truth-file", str(truth_file), "--out", str(tmp_path / "scored")]) == 0
     m = json.loads((tmp_path / "scored" / "metrics.json").read_text())
-    assert m["nees"]["dof"] == 12 and m["config"]["truth"] == str(truth_file)
+    assert m["nees"]["dof"] == 12 and m["config"]["scored_against"] == str(truth_file)
     df = pd.read_parquet(tmp_path / "scored" / "states.parquet")
     truth = pd.read_parquet(truth_file).set_index("t_s")
     # the true_* columns are the truth file's rows at the filter's times (every second row of a 0.5 s truth)
