@@ -68,6 +68,8 @@ class NavigationRun:
     relinearizations: tuple[tuple[float, int, bool], ...] = ()
     #: UKF: sigma-point draws whose covariance had no Cholesky factor and was floored (:func:`estimators.ukf.scaled_cholesky`)
     regularizations: int = 0
+    #: (N,) seconds per step by ``run_navigation``'s ``clock`` (predict, updates, re-linearisation; NaN at step 0), or None
+    step_s: np.ndarray | None = None
 
 
 def run_navigation(
@@ -89,6 +91,7 @@ def run_navigation(
     proxy: str | None = None,
     R_w: float = R_OMEGA_PROXY,
     reacquire_window: int | None = 5,
+    clock=None,
     **filter_kwargs,
 ) -> NavigationRun:
     """Filter the pose measurements ``(t_meas, q_meas (M,4), r_meas (M,3))`` on the grid ``t`` (N,).
@@ -106,6 +109,8 @@ def run_navigation(
     source whose innovations lie on a line, the filter is re-acquired from
     them (:mod:`estimators.reacquisition`); ``None`` turns this off (the
     paper's filters, which a long blackout can lock out for good).
+    ``clock``: a callable returning seconds (e.g. ``time.process_time``) read around every
+    step; the differences are ``NavigationRun.step_s`` (what ``benchmarks/bench_realtime.py`` plots).
     """
     t, servicer, tau = _check_grid(t, servicer)
     if proxy is not None and proxy not in PROXY_MODES:
@@ -127,7 +132,10 @@ def run_navigation(
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
     relin = _Relinearization(model, servicer, tau, tuning, filt, consider) if tuning.relinearize_s > 0 else None
+    tick = clock or _no_clock
+    step_s = np.full(n, np.nan)
     for k in range(1, n):
+        c0 = tick()
         if tuning.settling_s > 0:  # the tuning's settling and release phases (estimators.tuning)
             _set_phase(filt, tuning, tau, t[k - 1] - t[0], consider, relin, model, servicer[k - 1])
         filt.predict(servicer[k - 1], tau)
@@ -154,12 +162,17 @@ def run_navigation(
         if relin is not None:
             relin.step(filt, k, t[k] - t[0], parts, decisions)
         xs[k], Ps[k] = filt.x, filt.P
+        step_s[k] = tick() - c0
     return NavigationRun(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
         relinearizations=tuple(relin.events) if relin is not None else (),
-        regularizations=filt.regularizations,
+        regularizations=filt.regularizations, step_s=step_s if clock is not None else None,
     )
+
+
+def _no_clock() -> float:
+    return 0.0
 
 
 class _Relinearization:
