@@ -40,7 +40,7 @@ QUICK = os.environ.get("LCNAV_BENCH_QUICK") == "1"
 #: Two orbits of the 500 km orbit at 1 s (one orbit is 5677 s).
 DURATION_S = 1200.0 if QUICK else 11400.0
 #: The re-linearised filter's run: long enough to show its growth, short enough to finish (fits cost ∝ elapsed time).
-RELINEARIZED_S = 300.0 if QUICK else 900.0
+RELINEARIZED_S = 500.0 if QUICK else 900.0
 BLOCK = 100
 SEED = 1
 
