@@ -139,7 +139,7 @@ def _read_truth_file(path: Path, t: np.ndarray, scenario: str) -> np.ndarray:
     i = np.where(np.abs(t_file[i - 1] - t) < np.abs(t_file[i] - t), i - 1, i)
     if np.any(np.abs(t_file[i] - t) > 1e-6):
         dt = float(t[1] - t[0])
-        v.fail(f"{where}: t_s {t_file[0]:g} to {t_file[-1]:g} s every {np.median(np.diff(t_file)):g} s", "(times)",
+        v.fail(f"{where}: t_s", f"{t_file[0]:g} to {t_file[-1]:g} s every {np.median(np.diff(t_file)):g} s",
                f"a row at every filter time 0, {dt:g}, ..., {t[-1]:g} s (lcnav simulate with --duration {t[-1]:g} and a --dt dividing {dt:g})")
     return a[i, 1:]
 
