@@ -118,14 +118,15 @@ conservative throughout (kept as the measured baseline of the settling phase);
 ``budgeted`` (issue 31): ``settled``'s settling and release phases, then the ``Q_d`` of
 :mod:`estimators.process_noise` from :data:`PERTURBED_BUDGET` — the unmodelled accelerations of
 the perturbed truth, with the attitude/rate and position/velocity cross terms — and no batch
-fits: real time, the EKF and the UKF their own recursions. Measured 2026-11-27 (SC3, 300 s at
-1 s, 8 runs, seeds 1000–1007, after 60 s; a loaded 2-core machine): CPU 0.55–0.59 ms per step
-(EKF) and 1.0–1.1 ms (UKF), flat in time; but over-confident on both truths, NEES/dof 2.9 / 2.8
-(EKF, perturbed / torque-free) and 2.7 / 2.6 (UKF), worst runs 10–14, NEES in band on 0–3 % of the
-steps, NIS in band 94–97 %, gate rejections 0.6–0.9 %. The errors it keeps from the transient
-out of the default ``P_0`` are far larger than what the physics adds over 300 s (the two truths
-give the same figures): an honest ``Q_d`` alone does not make it consistent (the fixed-lag
-re-linearisation of issue 31 is the known remedy; not done), so it is not the default.
+fits: real time, the EKF and the UKF their own recursions. Measured 2026-11-27 (30 runs of 300 s at
+1 s, seeds 1000–1029, after 60 s, ``consistency_check``; perturbed / torque-free truth): CPU 0.30–0.48 ms
+per step (EKF) and 0.98–1.15 ms (UKF), flat in time (``benchmarks/bench_realtime.py``). Mean NEES/dof
+and steps in band: SC3 EKF 25.7 / 25.3 (0 % / 0 %, worst runs 718 / 707), SC3 UKF 2.40 / 2.37 (0 % /
+0 %, worst 16.8), SC1 EKF 1.13 / 0.98 (60 % / 41 %), SC1 UKF 0.95 / 0.82 (78 % / 25 %, 75 % of the steps
+below the band); NIS in band 77–98 %, gate rejections 0.8–2.4 %. The two truths give nearly the same
+figures: what the filters keep wrong from the transient out of the default ``P_0`` (SC3: ``k`` and the
+rate, see ``settled`` above) outweighs what the physics adds over 300 s, and an honest ``Q_d`` alone
+does not cover it (the fixed-lag re-linearisation of issue 31 is the known remedy; not done), so it is not the default.
 """
 
 from __future__ import annotations
