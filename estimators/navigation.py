@@ -20,6 +20,7 @@ import numpy as np
 
 from estimators.batch import BatchFitError, MeasurementHistory, posterior
 from estimators.ekf import ExtendedKalmanFilter
+from estimators.filter import NonFiniteError
 from estimators.gates import GateDecision
 from estimators.measurement import PoseNoise
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, rate_proxy
@@ -295,6 +296,8 @@ def weak_inertia_direction(model: RelativeProcessModel, x, servicer_state, tau: 
     the well-observed one converge first.
     """
     _, F = model.propagate_with_jacobian(np.asarray(x, dtype=float), servicer_state, tau)
+    if not np.all(np.isfinite(F[DW_ST_T, DK])):  # a diverged estimate (SC4 EKF at 5 s: "SVD did not converge")
+        raise NonFiniteError(f"the step's Jacobian dω/dk at the estimate is not finite over dt={tau}; the filter has diverged")
     v = np.linalg.svd(F[DW_ST_T, DK])[2][-1]
     u = np.zeros((1, N_ERROR))
     u[0, DK] = v
