@@ -139,7 +139,7 @@ def run() -> str:
     lines = ["## Real-time cost per step (EKF, UKF)", "",
              f"SC3, torque-free truth, 1 s steps with a pose measurement each, seed {SEED}, one process; CPU time per step "
              f"(`time.process_time`): the median over the run, and the mean of {BLOCK}-step blocks (amortised: a block holds 10 "
-             "of `relinearized`'s fits, which its median misses). `budgeted` runs {DURATION_S:.0f} s{'' if QUICK else ' (two orbits at 500 km)'}; "
+             f"of `relinearized`'s fits, which its median misses). `budgeted` runs {DURATION_S:.0f} s{'' if QUICK else ' (two orbits at 500 km)'}; "
              f"`relinearized` (the default, a full-information fit every 10 s) runs {RELINEARIZED_S:.0f} s. filterpy's filters run the "
              "same model, measurements and `Q_d` on the error state (the same-run baseline). Issue 31's targets: last block ≤ 1.2× the "
              "block at 300 s; median ≤ 1 ms (EKF), ≤ 3 ms (UKF). Figure: `benchmarks/realtime.png`.", "",
