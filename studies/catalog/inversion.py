@@ -32,6 +32,9 @@ RANGE_SIGMAS = 3.0
 #: 1-σ of a magnitude from the relative 1-σ of a flux: σ_m = (2.5 / ln 10) σ_F / F.
 _FLUX_TO_MAG_SIGMA = 2.5 / np.log(10.0)
 SECONDS_PER_HOUR = 3600.0
+#: Facets of an ``ellipsoid:A,B,C`` model: measured against 8000 facets for a 3:1.5:1 ellipsoid at phase angles
+#: below 110°, 0.12 % rms and 0.74 % max brightness error (2000 facets: 0.05 % / 0.34 %, at twice the cost).
+ELLIPSOID_FACETS = 1000
 
 
 class PeriodRangeError(ValueError):
@@ -76,7 +79,7 @@ def shape_model(shape: str):
         return ConvexModel()
     if shape.startswith("ellipsoid:"):
         a, b, c = (float(x) for x in shape.split(":", 1)[1].split(","))
-        return EllipsoidModel(a, b, c)
+        return EllipsoidModel(a, b, c, n_facets=ELLIPSOID_FACETS)
     from lightcurves.inversion.known_shape import KnownShapeModel
     from lightcurves.targets import get_target
 
