@@ -270,8 +270,12 @@ def from_lightcurve(lc: LightCurve, *, calibrated: bool = True, name: str | None
 
 
 def _plain_meta(meta: dict) -> dict:
-    """The light curve's provenance worth keeping (target, truth, site, epoch), without large items."""
-    return {k: meta[k] for k in ("source", "target", "truth_pole_I", "truth_rate_rad_s", "site", "epoch") if k in meta}
+    """The light curve's provenance worth keeping (target, site, epoch), without large items.
+
+    Never a ``truth_*`` key: an inversion curve goes where a prior is built, and the truth must not
+    (``tests/studies/test_no_oracle.py``).
+    """
+    return {k: meta[k] for k in ("source", "target", "site", "epoch") if k in meta}
 
 
 # ---------------------------------------------------------------- observers' CSV with geometry

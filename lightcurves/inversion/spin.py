@@ -2,7 +2,7 @@
 
 The body turns at the constant sidereal rate ``ω = 2π/P`` about the inertial direction ``pole_I`` (the
 angular-momentum direction: the rotation is right-handed about it, so the pole carries the sense).
-Its attitude is (eq. 1 of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
+Its attitude is (the rotation model of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
 
     C_IT(t) = C_IP · R_z(φ(t)) · C_AT,      φ(t) = φ₀ + ω (t − t₀ − ρ(t)/c)
 
@@ -25,20 +25,18 @@ about the pole (:func:`lightcurves.geometry.bisector_rate`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from astropy.time import Time
 
 from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.frames import pole_to_ecliptic, pole_to_radec
 
-__all__ = ["SpinState", "C_LIGHT_M_S", "OBLIQUITY_J2000_RAD", "pole_frame", "axis_frame", "rotation_phase", "C_TI", "body_directions",
-           "ecliptic_from_equatorial", "equatorial_from_ecliptic", "radec_from_vector", "vector_from_radec"]
+__all__ = ["SpinState", "C_LIGHT_M_S", "pole_frame", "axis_frame", "emission_time_s", "rotation_phase", "unspin", "C_TI", "body_directions"]
 
 C_LIGHT_M_S = 299_792_458.0
 """Speed of light in vacuum, m/s (exact, SI)."""
-OBLIQUITY_J2000_RAD = np.radians(84381.406 / 3600.0)
-"""Mean obliquity of the ecliptic at J2000, ε₀ = 84381.406″ (IAU 2006 precession, Capitaine et al., A&A 412, 2003)."""
 
 
 def _unit(name: str, v) -> np.ndarray:
@@ -91,7 +89,7 @@ class SpinState:
     period_s: float
     phase_rad: float
     epoch: Time
-    axis_T: np.ndarray = np.array([0.0, 0.0, 1.0])
+    axis_T: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     def __post_init__(self):
         object.__setattr__(self, "pole_I", _unit("pole_I", self.pole_I))
@@ -112,25 +110,32 @@ class SpinState:
 
     @property
     def ecliptic_rad(self) -> tuple[float, float]:
-        """Pole ecliptic longitude and latitude (λ, β), rad, J2000 mean ecliptic and equinox."""
-        return ecliptic_from_equatorial(self.pole_I)
+        """Pole ecliptic longitude and latitude (λ, β), rad, J2000 mean ecliptic and equinox (:mod:`.frames`)."""
+        lam, beta = pole_to_ecliptic(self.pole_I)
+        return float(lam), float(beta)
 
     @property
     def radec_rad(self) -> tuple[float, float]:
-        """Pole right ascension and declination (α, δ), rad, J2000 (GCRS) axes."""
-        return radec_from_vector(self.pole_I)
+        """Pole right ascension and declination (α, δ), rad, J2000 (GCRS) axes (:mod:`.frames`)."""
+        ra, dec = pole_to_radec(self.pole_I)
+        return float(ra), float(dec)
+
+
+def emission_time_s(curve: InversionCurve, epoch: Time) -> np.ndarray:
+    """(N,) s: when the light of each sample left the target, ``t − ρ/c``, counted from ``epoch``."""
+    return (curve.epoch - epoch).to_value("s") + curve.t_s - curve.range_m / C_LIGHT_M_S
 
 
 def rotation_phase(state: SpinState, curve: InversionCurve) -> np.ndarray:
     """φ(t) (N,) rad at each sample of ``curve``: φ₀ + ω (t − t₀ − ρ/c) (module docstring)."""
-    dt = (curve.epoch - state.epoch).to_value("s") + curve.t_s - curve.range_m / C_LIGHT_M_S
-    return state.phase_rad + state.rate_rad_s * dt
+    return state.phase_rad + state.rate_rad_s * emission_time_s(curve, state.epoch)
 
 
-def _rz_transpose_apply(phi, v_P) -> np.ndarray:
-    """R_z(φ)ᵀ v for (N,) angles and (N, 3) vectors."""
+def unspin(phi, v_P) -> np.ndarray:
+    """R_z(φ)ᵀ v: vectors (..., N, 3) of the pole frame turned back by the angles φ (N,) (broadcast over leading axes)."""
     c, s = np.cos(phi), np.sin(phi)
-    return np.stack([c * v_P[:, 0] + s * v_P[:, 1], -s * v_P[:, 0] + c * v_P[:, 1], v_P[:, 2]], axis=1)
+    x, y = v_P[..., 0], v_P[..., 1]
+    return np.stack([c * x + s * y, -s * x + c * y, v_P[..., 2]], axis=-1)
 
 
 def C_TI(state: SpinState, curve: InversionCurve) -> np.ndarray:
@@ -147,32 +152,6 @@ def body_directions(state: SpinState, curve: InversionCurve) -> tuple[np.ndarray
     """Sun and observer unit directions in the body frame T, (N, 3) each, at the samples of ``curve``."""
     phi = rotation_phase(state, curve)
     C_IP, C_TA = pole_frame(state.pole_I), axis_frame(state.axis_T)
-    sun_T = _rz_transpose_apply(phi, curve.sun_dir_I @ C_IP) @ C_TA.T
-    obs_T = _rz_transpose_apply(phi, curve.observer_dir_I @ C_IP) @ C_TA.T
+    sun_T = unspin(phi, curve.sun_dir_I @ C_IP) @ C_TA.T
+    obs_T = unspin(phi, curve.observer_dir_I @ C_IP) @ C_TA.T
     return sun_T, obs_T
-
-
-def _rx(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def radec_from_vector(v) -> tuple[float, float]:
-    """(longitude, latitude) rad of a direction (3,): atan2(y, x) in [0, 2π), asin(z)."""
-    u = _unit("direction", v)
-    return float(np.arctan2(u[1], u[0]) % (2 * np.pi)), float(np.arcsin(np.clip(u[2], -1.0, 1.0)))
-
-
-def vector_from_radec(lon_rad: float, lat_rad: float) -> np.ndarray:
-    """Unit vector (3,) of a (longitude, latitude) pair in rad."""
-    return np.array([np.cos(lat_rad) * np.cos(lon_rad), np.cos(lat_rad) * np.sin(lon_rad), np.sin(lat_rad)])
-
-
-def ecliptic_from_equatorial(v_I) -> tuple[float, float]:
-    """Ecliptic (λ, β) rad, J2000, of an equatorial J2000 direction: a rotation by ε₀ about the equinox (x-axis)."""
-    return radec_from_vector(_rx(-OBLIQUITY_J2000_RAD) @ _unit("direction", v_I))
-
-
-def equatorial_from_ecliptic(lon_rad: float, lat_rad: float) -> np.ndarray:
-    """Unit equatorial J2000 vector (3,) of ecliptic J2000 (λ, β) in rad (inverse of :func:`ecliptic_from_equatorial`)."""
-    return _rx(OBLIQUITY_J2000_RAD) @ vector_from_radec(lon_rad, lat_rad)
