@@ -72,7 +72,7 @@ def plot_pole_posterior(run, path: Path) -> None:
     _, nearest = cKDTree(poles).query(pix_I)
     image = post[nearest].reshape(lon_g.shape)
 
-    fig = plt.figure(figsize=(14, 5.8))
+    fig = plt.figure(figsize=(13, 6))
     ax = fig.add_subplot(111, projection="mollweide")
     mesh = ax.pcolormesh(lam, bet, image, cmap="magma", vmin=0.0, vmax=1.0, shading="auto", rasterized=True)
     colors = ["#2ec4ff", "#7CFC00", "#ffd166", "#ff6b6b", "#c77dff", "#f4f1de"]
@@ -93,7 +93,7 @@ def plot_pole_posterior(run, path: Path) -> None:
     ax.tick_params(axis="x", colors="0.85", labelsize=8)
     cb = fig.colorbar(mesh, ax=ax, orientation="horizontal", fraction=0.05, pad=0.08, shrink=0.5)
     cb.set_label(f"exp(−Δχ²/2s) of the pole search, s = {scale:.3g}")
-    fig.subplots_adjust(left=0.03, right=0.62, top=0.9, bottom=0.08)
+    fig.subplots_adjust(left=0.07, right=0.68, top=0.9, bottom=0.08)
     ax.set_title(f"Pole posterior — {run.shape}, {len(run.curves)} curves; ellipses 68 % (solid) and 95 % (dashed)", fontsize=11)
     save_png(fig, path)
 
@@ -116,7 +116,7 @@ def plot_night_fit(curve, fitted: np.ndarray, path: Path, title: str) -> None:
     ref = float(np.median(curve.brightness))
     fig, (ax, axr) = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax.errorbar(t_min, curve.brightness / ref, yerr=curve.sigma / ref, fmt=".", ms=3, color="0.25", ecolor="0.7", lw=0.6, label="observed")
-    ax.plot(*_gaps_broken(t_min, fitted / ref), "-", color="tab:red", lw=1.3, label="fitted")
+    ax.plot(*_gaps_broken(t_min, fitted / ref), ".-", color="tab:red", lw=1.0, ms=2.5, label="fitted (at the samples)")
     ax.set_ylabel("brightness / median")
     r = (curve.brightness - fitted) / curve.sigma
     ax.legend(loc="upper right", fontsize=9)

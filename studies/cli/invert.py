@@ -33,7 +33,7 @@ MAX_PERIOD_RATIO = 10.0
 #: Most sidereal-rate trials of the search's grid (the span of the data sets the step, ΔP ≈ P²/(4 T)).
 MAX_PERIOD_TRIALS = 400
 #: Search sizes: default, and ``--quick`` (a coarser pole lattice and fewer samples in the grid: a first look).
-SEARCH_OPTIONS = {False: {}, True: {"pole_step_deg": 15.0, "n_grid_samples": 60, "n_candidates": 3, "n_periods_per_pole": 1, "n_phases": 12}}
+SEARCH_OPTIONS = {False: {}, True: {"pole_step_deg": 15.0, "n_grid_samples": 60, "n_candidates": 4, "n_periods_per_pole": 1, "n_phases": 12}}
 
 
 def _shape(text: str) -> str:
@@ -75,10 +75,10 @@ def _read(files: list[Path]) -> list:
     return curves
 
 
-def _check_trials(ranges, curves) -> None:
+def _check_trials(ranges, curves, oversampling: float) -> None:
     from studies.catalog.inversion import period_trials
 
-    n = period_trials(ranges, curves)
+    n = period_trials(ranges, curves, oversampling)
     if n > MAX_PERIOD_TRIALS:
         spans = "; ".join(f"{r.lo_s / 3600:.6g} to {r.hi_s / 3600:.6g} h" for r in ranges)
         raise v.InputError(f"--period-range-h {spans}: {n} period trials over the data's time span: expected at most {MAX_PERIOD_TRIALS} "
@@ -134,7 +134,7 @@ def invert_command(
     out: Path | None = typer.Option(None, help="write inversion.json, solutions.csv/.parquet and figures into this folder", callback=v.out_dir()),
     record: Path | None = typer.Option(None, help="write a rerun recording (.rrd)", callback=v.out_file(".rrd")),
     seed: int = typer.Option(0, help="seed of the search's random pole-lattice rotation", callback=v.seed()),
-    quick: bool = typer.Option(False, help="a coarser, faster search (15° pole lattice, 60 samples per curve in the grid, 3 pole minima refined)"),
+    quick: bool = typer.Option(False, help="a coarser, faster search (15° pole lattice, 60 samples per curve in the grid, 4 pole minima refined)"),
 ) -> None:
     """Invert light curves of one object to its spin state: pole, sidereal period, phase and (known shape) body axis."""
     from studies.catalog.inversion import PeriodRange, derived_period_ranges, fitted_brightness, result_dict, run_inversion
@@ -150,7 +150,7 @@ def invert_command(
         ranges, _ = derived_period_ranges(curves)
         for r in ranges:
             typer.echo(f"lcnav: period range {r.lo_s / 3600:.6g} to {r.hi_s / 3600:.6g} h derived from {r.source}", err=True)
-    _check_trials(ranges, curves)
+    _check_trials(ranges, curves, SEARCH_OPTIONS[quick].get("period_oversampling", 1.0))
     progress, close = _progress_bar(not as_json and sys.stderr.isatty())
     try:
         run = run_inversion(curves, shape, ranges, rng=np.random.default_rng(seed), progress=progress, search_options=SEARCH_OPTIONS[quick])
