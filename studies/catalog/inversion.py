@@ -66,10 +66,6 @@ class InversionRun:
     probabilities: np.ndarray  #: merged probabilities of ``solutions`` (they sum to 1)
     time_s: float  #: wall time of the searches
 
-    @property
-    def best_result(self):
-        return self.solutions[0][1]
-
 
 def shape_model(shape: str):
     """The shape model of a ``--shape`` value (validated by the command): ConvexModel, EllipsoidModel or KnownShapeModel."""
