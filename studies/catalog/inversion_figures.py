@@ -21,6 +21,8 @@ from studies.catalog.figures import pyplot, save_png
 
 #: Credible levels drawn around each solution.
 LEVELS = (0.68, 0.95)
+#: Solutions below this probability are marked (grey ×) but not labelled or given ellipses (the best always is).
+MIN_LABELLED_PROBABILITY = 1e-3
 
 
 def _lonlat_deg(v_I) -> tuple[np.ndarray, np.ndarray]:
@@ -76,7 +78,9 @@ def plot_pole_posterior(run, path: Path) -> None:
     ax = fig.add_subplot(111, projection="mollweide")
     mesh = ax.pcolormesh(lam, bet, image, cmap="magma", vmin=0.0, vmax=1.0, shading="auto", rasterized=True)
     colors = ["#2ec4ff", "#7CFC00", "#ffd166", "#ff6b6b", "#c77dff", "#f4f1de"]
-    for k, ((sol, _), p) in enumerate(zip(run.solutions, run.probabilities)):
+    shown = [k for k, p in enumerate(run.probabilities) if k == 0 or p >= MIN_LABELLED_PROBABILITY]
+    for k in shown:
+        sol, p = run.solutions[k][0], run.probabilities[k]
         col = colors[k % len(colors)]
         for level, style in zip(LEVELS, ("-", "--")):
             lo, la = _broken(*_lonlat_deg(ellipse_I(sol, level)))
@@ -86,13 +90,18 @@ def plot_pole_posterior(run, path: Path) -> None:
                 label=f"#{k + 1}  p = {p:.3g}   λ {lo % 360:.1f}°  β {la:+.1f}°  ±{sol.pole_sigma_deg:.2g}°   P = {sol.period_s / 3600:.8g} h")
         ax.annotate(f"{k + 1}", (np.radians(lo), np.radians(la)), xytext=(6, 4 + 9 * (k % 3)), textcoords="offset points", color=col,
                     fontsize=9, fontweight="bold")
+    rest = [k for k in range(len(run.solutions)) if k not in shown]
+    if rest:
+        lo, la = _lonlat_deg(np.array([run.solutions[k][0].pole_I for k in rest]))
+        ax.plot(np.radians(lo), np.radians(la), "x", color="0.6", ms=5, ls="none",
+                label=f"{len(rest)} more with p < {MIN_LABELLED_PROBABILITY:g} (inversion.json)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, title="solutions (best first)", title_fontsize=9, frameon=False)
     ax.grid(True, color="0.6", lw=0.4, alpha=0.6)
     ax.set_xlabel("ecliptic longitude λ (J2000)")
     ax.set_ylabel("ecliptic latitude β")
     ax.tick_params(axis="x", colors="0.85", labelsize=8)
     cb = fig.colorbar(mesh, ax=ax, orientation="horizontal", fraction=0.05, pad=0.08, shrink=0.5)
-    cb.set_label(f"exp(−Δχ²/2s) of the pole search, s = {scale:.3g}")
+    cb.set_label(f"exp(−Δχ²/2s) of the screening grid (coarse convex model, best period per pole), s = {scale:.3g}")
     fig.subplots_adjust(left=0.07, right=0.68, top=0.9, bottom=0.08)
     ax.set_title(f"Pole posterior — {run.shape}, {len(run.curves)} curves; ellipses 68 % (solid) and 95 % (dashed)", fontsize=11)
     save_png(fig, path)
