@@ -288,4 +288,7 @@ def prior(
 
 def register(app: typer.Typer) -> None:
     """Add ``lcnav lightcurve ...`` to the root app."""
+    from studies.cli import invert
+
+    invert.register(lightcurve_app)
     app.add_typer(lightcurve_app, name="lightcurve")
