@@ -162,17 +162,36 @@ def axis_kind(J_diag, axis_T) -> str:
     return "major" if J[int(np.argmax(np.abs(axis_T)))] >= J.max() * (1 - 1e-6) else "minor"
 
 
-def draw_case(rng: np.random.Generator, target: str, n_nights: int, samples_per_night: int) -> Case:
-    """One object (module docstring for the distributions)."""
+def draw_case(rng: np.random.Generator, target: str, n_nights: int, samples_per_night: int, max_tries: int = 20) -> Case:
+    """One object (module docstring for the distributions); orbit and first epoch redrawn (up to ``max_tries``) until every night
+    has a visibility window at the default site (a GPS-like orbit can stay in daylight for weeks)."""
     pole = rng.normal(size=3)
     axes = steady_axes(get_target(target).J_diag)
     axis = axes[int(rng.integers(len(axes)))] * rng.choice([-1.0, 1.0])
     rate = np.radians(np.exp(rng.uniform(*np.log(RATE_DEG_S))))
-    orbit = KeplerOrbit(a_m=ORBIT_A_M, e=0.0, i_rad=np.radians(ORBIT_I_DEG), raan_rad=rng.uniform(0, 2 * np.pi), nu0_rad=rng.uniform(0, 2 * np.pi))
     days = np.sort(rng.choice(np.arange(1, MAX_SPAN_DAYS + 1), size=n_nights - 1, replace=False)) if n_nights > 1 else np.zeros(0, int)
     cadence = float(np.clip(2 * np.pi / rate / 40.0, 0.5, 2.0))
-    return Case(target, pole / np.linalg.norm(pole), axis, float(rate), float(rng.uniform(0, 2 * np.pi)), orbit,
-                DEFAULT_EPOCH + rng.uniform(0.0, 365.0) * u.day, (0, *map(int, days)), cadence, int(samples_per_night))
+    for _ in range(max_tries):
+        orbit = KeplerOrbit(a_m=ORBIT_A_M, e=0.0, i_rad=np.radians(ORBIT_I_DEG), raan_rad=rng.uniform(0, 2 * np.pi), nu0_rad=rng.uniform(0, 2 * np.pi))
+        case = Case(target, pole / np.linalg.norm(pole), axis, float(rate), float(rng.uniform(0, 2 * np.pi)), orbit,
+                    DEFAULT_EPOCH + rng.uniform(0.0, 365.0) * u.day, (0, *map(int, days)), cadence, int(samples_per_night))
+        if all(_window_start(case, day, _duration(case)) is not None for day in case.night_days):
+            return case
+    raise ValueError(f"orbit: no observable draw in {max_tries} tries: expected a GPS-like orbit visible from the site on every night")
+
+
+def _duration(case: Case) -> float:
+    """Arc length, s, that gives the nominal samples per night (:func:`sample_times` removes 6 % in gaps)."""
+    return case.samples_per_night * case.cadence_s / 0.94
+
+
+def _window_start(case: Case, day: int, duration_s: float) -> float | None:
+    """Start (s after the night's epoch) of the first arc of ``duration_s`` visible within 3 days of ``day``, or None."""
+    night = case.epoch + day * u.day
+    try:
+        return find_visible_start(_rephased(case.orbit, (night - case.epoch).to_value("s")), night, duration_s, DEFAULT_SITE, search_s=3 * 86400.0)
+    except ValueError:
+        return None
 
 
 def _rephased(orbit: KeplerOrbit, dt_s: float) -> KeplerOrbit:
@@ -184,7 +203,7 @@ def _arc_epoch(case: Case, day: int, duration_s: float, rng: np.random.Generator
     """Start of one night's arc: uniform inside the first visibility window found from ``day`` days after the case's epoch."""
     night = case.epoch + day * u.day
     orbit = _rephased(case.orbit, (night - case.epoch).to_value("s"))
-    start = find_visible_start(orbit, night, duration_s, DEFAULT_SITE, search_s=3 * 86400.0)
+    start = _window_start(case, day, duration_s)
     t = start + np.arange(0.0, 12 * 3600.0, 60.0)
     visible = observe(orbit, t, night, DEFAULT_SITE).visible
     n_vis = int(np.argmin(visible)) if not visible.all() else visible.size
@@ -209,7 +228,7 @@ def true_state(sim, case: Case, epoch_obs: Time) -> SpinState:
 def simulate_case(case: Case, renderer, rng: np.random.Generator) -> tuple[list, SpinState, float]:
     """The object's nights as calibrated :class:`InversionCurve` s, its true :class:`SpinState` and its synodic period (s) on the first night."""
     target = get_target(case.target)
-    duration = case.samples_per_night * case.cadence_s / 0.94  # sample_times removes 6 % in gaps
+    duration = _duration(case)
     curves, truth, synodic, first = [], None, float("nan"), None
     for day in case.night_days:
         epoch = _arc_epoch(case, day, duration, rng)
