@@ -468,7 +468,7 @@ def _lightcurve_from_cells(table: Table, where: str, time_format, time_scale: st
     """The light curve of a table of text cells (:func:`_csv_table`, :func:`_text_table`): checked, converted, duplicates merged."""
     names = _reader_options(time_format, time_scale, columns)
     if len(table) == 0:
-        raise BadSeries(f"{where}: the table has a header but no rows; expected one row per sample")
+        raise BadSeries(f"{where}: a header but no rows: expected one row per sample")
     value, error = _photometry_roles(table, names, where)
     if names["time"] in time_columns:  # already absolute times (ISO text in UTC): a format would contradict them
         if time_format is not None:

@@ -25,6 +25,7 @@ import contextlib
 import hashlib
 import json
 import logging
+import warnings
 import math
 import os
 import re
@@ -168,9 +169,13 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
         with client:
             yield client
         return
-    with LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR, preload=[WORKER_IGNORES_SIGINT]) as cluster, Client(cluster) as client:
-        yield client
+    with warnings.catch_warnings():
+        # distributed may still warn that its default dashboard port is taken by another cluster on this machine (two
+        # studies at once, a parallel test run) although the dashboard is off: nothing a user must act on
+        warnings.filterwarnings("ignore", message=r"Port \d+ is already in use", category=UserWarning)
+        with LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True, dashboard_address=None,
+                          silence_logs=logging.ERROR, preload=[WORKER_IGNORES_SIGINT]) as cluster, Client(cluster) as client:
+            yield client
 
 
 def execute_in_tmp(execute: Callable[[RunSpec, Path], dict], spec: RunSpec) -> RunOutput:

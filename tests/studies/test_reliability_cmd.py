@@ -45,7 +45,7 @@ def light_curve_csv(path: Path, extra: str = "", n: int = 30) -> Path:
 def test_header_only_csv(tmp_path, capsys):
     path = tmp_path / "lc.csv"
     path.write_text("time,mag\n")
-    one_error(capsys, ["lightcurve", "prior", path], "lc.csv: CSV has a header but no rows")
+    one_error(capsys, ["lightcurve", "prior", path], "lc.csv: a header but no rows: expected one row per sample")
 
 
 def test_garbage_rrd(tmp_path, capsys):

@@ -123,7 +123,7 @@ def test_study_configs_default_to_the_torque_free_truth_and_refuse_another_name(
     assert definition.load().params["truth"] == "torque-free"
     bad = tmp_path / f"{study}.toml"
     bad.write_text(default_config_path(study).read_text().replace('truth = "torque-free"', 'truth = "kepler"'))
-    with pytest.raises(ConfigError, match=r"field 'truth' must be one of 'torque-free', 'perturbed', got 'kepler'"):
+    with pytest.raises(ConfigError, match=r"truth 'kepler': expected one of 'torque-free', 'perturbed'"):
         definition.load(bad)
 
 
