@@ -2,17 +2,24 @@
 
 The ECSV schema (astropy ``TimeSeries``, units in the header):
 
-========== ======== =====================================================
-column     unit     meaning
-========== ======== =====================================================
-time       (Time)   UTC sample time
-flux       W / m2   flux at the observer (above the atmosphere)
-mag        mag      apparent magnitude (Sun = −26.74)
-mag_err    mag      1-σ magnitude error
-phase_angle deg     Sun–target–observer angle
-range      m        observer–target distance
-elevation  deg      target elevation at the site
-========== ======== =====================================================
+==================== ======== ==============================================================
+column               unit     meaning
+==================== ======== ==============================================================
+time                 (Time)   UTC sample time
+flux                 W / m2   flux at the observer (above the atmosphere)
+mag                  mag      apparent magnitude (Sun = −26.74)
+mag_err              mag      1-σ magnitude error
+phase_angle          deg      Sun–target–observer angle
+range                m        observer–target distance
+elevation            deg      target elevation at the site
+sun_dir_I_x/y/z      —        unit vector target -> Sun in frame I (GCRS ≈ equatorial J2000)
+observer_dir_I_x/y/z —        unit vector target -> observer (topocentric) in I
+sun_distance         m        target–Sun distance
+==================== ======== ==============================================================
+
+The geometry columns (``sun_dir_I_*``, ``observer_dir_I_*``, ``sun_distance``)
+are written only when the producer knows them (:func:`~lightcurves.simulate.simulate_lightcurve`
+does); a file without them reads back with NaN there, as do older files.
 
 Metadata (``table.meta``): ``target``, ``truth`` (spin axis in T, rate, pole),
 ``site``, ``cadence_s``, ``seed``, ``variant`` … — whatever the producer knows.
@@ -53,6 +60,18 @@ class LightCurve:
     range_m: np.ndarray  #: (N,)
     elevation_rad: np.ndarray  #: (N,)
     meta: dict = field(default_factory=dict)
+    sun_dir_I: np.ndarray | None = None  #: (N, 3) unit vectors target -> Sun in I; None -> NaN (unknown)
+    observer_dir_I: np.ndarray | None = None  #: (N, 3) unit vectors target -> observer in I; None -> NaN
+    sun_distance_m: np.ndarray | None = None  #: (N,) target–Sun distance; None -> NaN
+
+    def __post_init__(self):
+        n = len(self.mag)
+        for name, shape in (("sun_dir_I", (n, 3)), ("observer_dir_I", (n, 3)), ("sun_distance_m", (n,))):
+            value = getattr(self, name)
+            a = np.full(shape, np.nan) if value is None else np.asarray(value, dtype=float)
+            if a.shape != shape:
+                raise BadSeries(f"{name}: shape {a.shape}: expected {shape}, one per sample (NaN where unknown)")
+            object.__setattr__(self, name, a)
 
     @property
     def t_s(self) -> np.ndarray:
@@ -65,6 +84,14 @@ class LightCurve:
 
 def _nan(n):
     return np.full(n, np.nan)
+
+
+#: Per-sample geometry columns of the ECSV: LightCurve field -> (column names, unit).
+_GEOMETRY = {
+    "sun_dir_I": (("sun_dir_I_x", "sun_dir_I_y", "sun_dir_I_z"), None),
+    "observer_dir_I": (("observer_dir_I_x", "observer_dir_I_y", "observer_dir_I_z"), None),
+    "sun_distance_m": (("sun_distance",), u.m),
+}
 
 
 def to_timeseries(lc: LightCurve) -> TimeSeries:
@@ -80,6 +107,11 @@ def to_timeseries(lc: LightCurve) -> TimeSeries:
             "elevation": np.degrees(lc.elevation_rad) * u.deg,
         },
     )
+    for attr, (names, unit) in _GEOMETRY.items():
+        value = getattr(lc, attr).reshape(len(lc), len(names))
+        if np.isfinite(value).any():  # unknown geometry is not written: files without it stay as they were
+            for k, name in enumerate(names):
+                ts[name] = value[:, k] if unit is None else value[:, k] * unit
     ts.time.precision = 9  # ISO text keeps ns (the default, ms, would round sample times)
     ts.meta.update(_plain(lc.meta))
     return ts
@@ -114,6 +146,29 @@ def _column(table: Table, name: str, unit, n: int) -> np.ndarray:
         raise BadSeries(f"light-curve column '{name}' ({type(e).__name__}: {str(e).splitlines()[0][:100]}); expected numbers in {unit}") from None
 
 
+def _geometry(table: Table, n: int) -> dict:
+    """The geometry columns of ``table`` as LightCurve fields (NaN if absent); BadSeries for half a vector or a non-unit one."""
+    out = {}
+    for attr, (names, unit) in _GEOMETRY.items():
+        present = [c in table.colnames for c in names]
+        if any(present) and not all(present):
+            raise BadSeries(f"light-curve columns {', '.join(names)}: only {[c for c, p in zip(names, present) if p]}: expected all or none")
+        value = np.stack([_column(table, c, unit, n) for c in names], axis=-1)
+        known = np.isfinite(value)
+        if np.any(known.any(axis=-1) != known.all(axis=-1)):
+            k = int(np.flatnonzero(known.any(axis=-1) != known.all(axis=-1))[0])
+            raise BadSeries(f"light-curve columns {', '.join(names)} row {k + 1}: {value[k].tolist()}: expected all numbers or all NaN")
+        rows = known.all(axis=-1)
+        size = np.linalg.norm(value[rows], axis=-1) if len(names) == 3 else value[rows, 0]
+        bad = np.abs(size - 1.0) > 1e-6 if len(names) == 3 else ~(size > 0)
+        if bad.any():
+            k = int(np.flatnonzero(rows)[np.flatnonzero(bad)[0]])
+            expected = "unit vectors (norm 1 within 1e-6)" if len(names) == 3 else "distances > 0"
+            raise BadSeries(f"light-curve column {names[0]} row {k + 1}: {float(size[bad][0]):.9g}: expected {expected}")
+        out[attr] = value if len(names) == 3 else value[:, 0]
+    return out
+
+
 def from_table(table: Table) -> LightCurve:
     """A :class:`LightCurve` from a table with a ``time`` (Time) column and ``mag`` (validated)."""
     if "time" not in table.colnames or "mag" not in table.colnames:
@@ -135,6 +190,7 @@ def from_table(table: Table) -> LightCurve:
         range_m=_column(table, "range", u.m, n),
         elevation_rad=np.radians(_column(table, "elevation", u.deg, n)),
         meta=dict(table.meta),
+        **_geometry(table, n),
     )
 
 

@@ -4,7 +4,9 @@
 Sun and the observer are), :func:`geometry.spin_attitude` (how the target is
 turned), :class:`render.UnresolvedRenderer` (how much light it sends the
 observer) and :mod:`photometry` (what a telescope measures), and returns the
-measured :class:`~lightcurves.io.LightCurve` with the noise-free truth.
+measured :class:`~lightcurves.io.LightCurve` (with its per-sample geometry:
+target -> Sun and target -> observer unit vectors in I, Sun distance) and
+the noise-free truth.
 
 The default orbit is a circular 26 560 km, 55° orbit (GPS disposal region,
 where Atlas-Centaur upper stages are): the line of sight turns by ≲0.01°/s
@@ -163,5 +165,6 @@ def simulate_lightcurve(
     lc = LightCurve(
         time=times, mag=sub(mag), mag_err=sub(mag_err), flux_w_m2=mag_to_flux(sub(mag)), phase_angle_rad=kept_obs.phase_angle_rad,
         range_m=kept_obs.range_m, elevation_rad=kept_obs.elevation_rad, meta=info,
+        sun_dir_I=kept_obs.sun_dir_I, observer_dir_I=kept_obs.observer_dir_I, sun_distance_m=kept_obs.sun_distance_m,
     )  # fmt: skip
     return SimulatedLightCurve(lc, sub(flux), kept_obs, sub(q_IT), sub(w_T), renderer.variant)

@@ -3,10 +3,15 @@
 ::
 
     lcnav lightcurve render --target atlas-centaur --axis 0,0,1 --rate-deg-s 5 \\
-        --duration 400 --cadence 0.5 --seed 1 --out lc.ecsv [--record lc.rrd]
+        --duration 400 --cadence 0.5 --seed 1 --out lc.ecsv [--record lc.rrd] \\
+        [--epoch 2024-03-21T18:00:00 --site 28.2995,-16.5097,2393]
     lcnav lightcurve prior lc.ecsv [--json] [--record prior.rrd]
 
-Inputs are validated before anything is written; the ECSV and the recording
+``--epoch`` (UTC) and ``--site`` (geodetic latitude, east longitude, height) say
+when and where: the arc is the first one after the epoch in which the target is
+visible from the site, so a user renders the nights they plan to observe. The
+ECSV carries the per-sample geometry (target -> Sun and target -> observer unit
+vectors in I, Sun distance). Inputs are validated before anything is written; the ECSV and the recording
 are written atomically (:mod:`studies.engine.io`). ``--record`` logs to rerun:
 ``/lightcurve/mag``, ``/lightcurve/mag_true``, ``/lightcurve/geometry/*`` on
 the ``sim_time`` timeline (seconds since the first sample) and the spectra
@@ -39,6 +44,54 @@ def _vector3(text: str, flag: str) -> np.ndarray:
 
 #: Most samples of a rendered light curve (duration / cadence): each one is a Mitsuba render.
 MAX_SAMPLES = 10**5
+#: Epochs a render accepts, ISO years: UTC with leap seconds starts in 1962; ERFA's leap-second table ends about 2100.
+EPOCH_YEARS = (1962, 2100)
+#: Site heights accepted, m above the WGS84 ellipsoid (the Dead Sea shore to above the highest observatories).
+SITE_HEIGHT_M = (-500.0, 9000.0)
+
+
+def _epoch(text: str | None):
+    """``--epoch`` as an astropy UTC ``Time`` (ISO 8601, 'T' or space between date and time); None -> the simulator's default."""
+    import warnings
+
+    from astropy.time import Time
+    from erfa import ErfaWarning
+
+    from lightcurves.simulate import DEFAULT_EPOCH
+
+    if text is None:
+        return DEFAULT_EPOCH
+    form = f"an ISO 8601 UTC time like 2024-03-21T18:00:00, years {EPOCH_YEARS[0]} to {EPOCH_YEARS[1]}"
+    try:
+        with warnings.catch_warnings():  # a year outside the leap-second table ("dubious year") is refused below, not warned about
+            warnings.simplefilter("ignore", ErfaWarning)
+            epoch = Time(text.strip(), format="isot" if "T" in text else "iso", scale="utc")
+            year = int(epoch.utc.isot[:4]) if epoch.isscalar else None
+    except ValueError:
+        v.fail("--epoch", text, form)
+    if year is None or not EPOCH_YEARS[0] <= year <= EPOCH_YEARS[1]:
+        v.fail("--epoch", text, form)
+    return epoch
+
+
+def _site(text: str | None):
+    """``--site 'LAT,LON,HEIGHT_M'`` (deg, deg east, m) as an astropy ``EarthLocation``; None -> the simulator's default site."""
+    import astropy.units as u
+    from astropy.coordinates import EarthLocation
+
+    from lightcurves.geometry import DEFAULT_SITE
+
+    if text is None:
+        return DEFAULT_SITE
+    form = (f"'LAT,LON,HEIGHT_M' like 28.2995,-16.5097,2393: latitude within [-90, 90] deg, longitude within [-180, 360] deg east, "
+            f"height within [{SITE_HEIGHT_M[0]:g}, {SITE_HEIGHT_M[1]:g}] m")  # fmt: skip
+    try:
+        lat, lon, height = v.check_floats("--site", text, 3, max_abs=1e4)
+    except v.InputError:
+        v.fail("--site", text, form)
+    if not (abs(lat) <= 90 and -180 <= lon <= 360 and SITE_HEIGHT_M[0] <= height <= SITE_HEIGHT_M[1]):
+        v.fail("--site", text, form)
+    return EarthLocation.from_geodetic(lon=lon * u.deg, lat=lat * u.deg, height=height * u.m)
 
 
 def _validate_render(target: str, axis: str, duration: float, cadence: float, albedo: float | None, pole_ra_dec: str | None):
@@ -81,8 +134,13 @@ def render(
                                        callback=v.text(("llvm_ad_rgb", "scalar_rgb"))),
     resolution: int = typer.Option(64, help="film pixels per side (4 to 1024)", callback=v.count(4, 1024)),
     spp: int = typer.Option(4, help="samples per pixel (1, 4, 16, 64 or 256)", callback=v.one_of((1, 4, 16, 64, 256))),
+    epoch: str | None = typer.Option(None, help="UTC start of the search for a visible arc, ISO 8601 like 2024-03-21T18:00:00 "
+                                     "(default: lightcurves.simulate.DEFAULT_EPOCH)", callback=v.text()),
+    site: str | None = typer.Option(None, help="observer 'LAT,LON,HEIGHT_M': geodetic degrees, degrees east, metres "
+                                    "(default: ESA's OGS at Teide, lightcurves.geometry.DEFAULT_SITE)", callback=v.text()),
 ) -> None:
-    """Render a synthetic light curve and write it as ECSV."""
+    """Render a synthetic light curve and write it as ECSV (with the Sun and observer directions per sample)."""
+    from astropy.utils import iers
     from tqdm import tqdm
 
     from lightcurves import extract_spin_prior
@@ -92,13 +150,16 @@ def render(
     from lightcurves.targets import get_target
 
     axis_T, pole_I = _validate_render(target, axis, duration, cadence, albedo, pole_ra_dec)
+    when, where = _epoch(epoch), _site(site)
     if record is not None and record.absolute() == out.absolute():
         v.fail("--record", str(record), "a file other than --out")
     tgt = get_target(target, **({"albedo": albedo} if albedo is not None else {}))
     renderer = UnresolvedRenderer(tgt, resolution=resolution, spp=spp, variant=variant)
     typer.echo(f"lcnav: rendering {target} with Mitsuba {renderer.variant}", err=True)
     rng = np.random.default_rng(seed)
-    with tqdm(total=None, unit="sample", desc="render", leave=False) as bar:
+    # Nights to plan lie beyond the IERS table's measured Earth orientation: accept its predictions however old
+    # (astropy refuses them past 30 days by default). A UT1 error below 1 s turns the site by < 15", nothing a light curve sees.
+    with iers.conf.set_temp("auto_max_age", None), tqdm(total=None, unit="sample", desc="render", leave=False) as bar:
 
         def progress(done, total):
             bar.total = total
@@ -106,7 +167,7 @@ def render(
             bar.refresh()
 
         sim = simulate_lightcurve(
-            tgt, axis_T=axis_T, rate_rad_s=np.radians(rate_deg_s), duration_s=duration, cadence_s=cadence, rng=rng, pole_I=pole_I,
+            tgt, axis_T=axis_T, rate_rad_s=np.radians(rate_deg_s), duration_s=duration, cadence_s=cadence, rng=rng, pole_I=pole_I, epoch=when, site=where,
             noise=noise, uneven=not even, renderer=renderer, meta={"seed": seed, "resolution": resolution, "spp": spp}, progress=progress,
         )  # fmt: skip
     ts = to_timeseries(sim.lightcurve)
