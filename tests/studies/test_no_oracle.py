@@ -1,0 +1,115 @@
+"""No oracle: the spin prior a study hands a filter is built from light curves and the target's model only.
+
+The truth renders the light curves (that is the simulation); from then on it may only score. Two checks:
+
+* dynamic — :func:`studies.sim.lightcurve_prior.build_prior` runs on light curves whose metadata raises on any
+  ``truth*`` key (and whose truth was used to render them), and gives the same prior as on light curves with
+  no metadata at all;
+* static — no study module or the demo makes a filter prior from the truth (``draw_prior``,
+  ``BodyRatePrior.from_truth``, ``tr.target[0, W_B]``, ``scenario.w_T0_T_rad_s``) outside a branch a study's config
+  names as the oracle on purpose (``prior_source == "truth"``).
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class TruthGuard(dict):
+    """Metadata that fails the test the moment anything asks it for a ``truth*`` key."""
+
+    def _check(self, key):
+        if str(key).lower().startswith("truth"):
+            raise AssertionError(f"the prior path read metadata key {key!r}")
+
+    def __getitem__(self, key):
+        self._check(key)
+        return super().__getitem__(key)
+
+    def get(self, key, default=None):
+        self._check(key)
+        return super().get(key, default)
+
+    def __contains__(self, key):
+        self._check(key)
+        return super().__contains__(key)
+
+    def items(self):
+        raise AssertionError("the prior path iterated over the whole metadata (it could read the truth)")
+
+    keys = values = __iter__ = items
+
+
+@pytest.fixture(scope="module")
+def nights():
+    from studies.sim.lightcurve_prior import observe_nights
+    from studies.sim.scenarios import get_scenario
+
+    return observe_nights(get_scenario("SC1"), np.random.default_rng(7), nights=3, duration_s=300.0, cadence_s=2.0, resolution_px=16, spp=1)
+
+
+def test_observed_light_curves_carry_no_truth(nights):
+    for lc in nights.lightcurves:
+        assert not [k for k in lc.meta if "truth" in k.lower()]
+        assert np.isfinite(lc.sun_dir_I).all() and np.isfinite(lc.observer_dir_I).all()
+    assert any("truth" in k for k in nights.simulated[0].lightcurve.meta)  # the renderer knew it; the observer's copy does not
+
+
+def test_build_prior_reads_no_truth_and_depends_only_on_the_data(nights):
+    from studies.sim.lightcurve_prior import build_prior
+
+    truth_meta = {**nights.simulated[0].lightcurve.meta}
+    guarded = [dataclasses.replace(lc, meta=TruthGuard({**truth_meta, **lc.meta})) for lc in nights.lightcurves]
+    bare = [dataclasses.replace(lc, meta={}) for lc in nights.lightcurves]
+    a = build_prior(guarded, nights.target, rng=np.random.default_rng(1))
+    b = build_prior(bare, nights.target, rng=np.random.default_rng(1))
+    assert a.spin is not None and b.spin is not None
+    np.testing.assert_array_equal(a.spin.w_T_T_rad_s, b.spin.w_T_T_rad_s)
+    np.testing.assert_array_equal(a.spin.covariance, b.spin.covariance)
+
+
+_ORACLES = ("draw_prior", "from_truth")
+
+
+def _oracle_uses(path: Path) -> list[str]:
+    """Calls that make a prior from the truth, outside an ``if ... == "truth"`` branch."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    allowed: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and any(isinstance(c, ast.Constant) and c.value == "truth" for c in ast.walk(node.test)):
+            allowed.update(id(n) for stmt in node.body for n in ast.walk(stmt))
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and id(node) not in allowed:
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else f.id if isinstance(f, ast.Name) else ""
+            if name in _ORACLES:
+                out.append(f"{path.relative_to(ROOT)}:{node.lineno} calls {name}")
+    return out
+
+
+@pytest.mark.parametrize("module", ["studies/catalog/chain_study.py", "studies/catalog/init_study.py", "studies/catalog/proxy_study.py",
+                                    "studies/catalog/demo.py", "studies/sim/chain.py", "studies/sim/lightcurve_prior.py"])
+def test_no_study_builds_a_prior_from_the_truth(module):
+    assert _oracle_uses(ROOT / module) == []
+
+
+def test_the_static_check_sees_an_oracle(tmp_path):
+    """The check can fail: an unguarded draw_prior is found, a guarded one is allowed."""
+    bad = tmp_path / "x.py"
+    bad.write_text("def f(tr, p, rng):\n    return draw_prior(tr.target[0], 0.05, 'along', rng)\n")
+    good = tmp_path / "y.py"
+    good.write_text("def f(tr, p, rng):\n    if p['prior_source'] == 'truth':\n        return draw_prior(tr.target[0], 0.05, 'along', rng)\n")
+    global ROOT
+    old, ROOT = ROOT, tmp_path
+    try:
+        assert _oracle_uses(bad) and not _oracle_uses(good)
+    finally:
+        ROOT = old
