@@ -30,6 +30,7 @@ Bad input raises :class:`~lightcurves.samples.BadSeries` (a ``ValueError``) with
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import astropy.units as u
@@ -38,6 +39,7 @@ from astropy.constants import c as _c
 from astropy.io.ascii import convert_numpy
 from astropy.table import Table
 from astropy.time import Time
+from erfa import ErfaWarning
 
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.frames import I_to_ecliptic, ecliptic_to_I
@@ -53,6 +55,10 @@ _C_M_S = _c.to_value(u.m / u.s)
 _TIME_SCALES = ("utc", "tt", "tdb")
 #: σ of a flux from σ of a magnitude: σ_F = 0.4 ln 10 · F · σ_m (first-order propagation of F = F0 10^(−0.4 m)).
 _MAG_TO_FLUX_SIGMA = 0.4 * np.log(10.0)
+#: Julian dates accepted (1858-11-16 to 2132-08-31): photographic-era photometry to planned nights; ERFA refuses far beyond.
+_JD_RANGE = (2_400_000.0, 2_500_000.0)
+#: Lengths of the object -> Sun and object -> observer vectors accepted, au (15 cm, a chaser close to its target, to 10⁴ au: no under/overflow in (r Δ)²).
+_DISTANCE_AU = (1e-12, 1e4)
 #: Suffixes read as DAMIT text by :func:`read_inversion_curves`.
 _DAMIT_SUFFIXES = (".txt", ".lcs", ".dat")
 
@@ -72,9 +78,29 @@ def _source(path_or_text) -> tuple[str, str]:
         raise BadSeries(f"{path.name}: byte {e.start} is not UTF-8: expected a text file") from None
 
 
-def _check_options(sigma_rel: float, time_scale: str) -> None:
+_DISTANCE_FORM = f"a vector from the object of length within [{_DISTANCE_AU[0]:g}, {_DISTANCE_AU[1]:g}] au"
+
+
+def _first_bad_distance(d: np.ndarray) -> int | None:
+    """Index of the first distance (au) outside ``_DISTANCE_AU``, or None."""
+    bad = (d < _DISTANCE_AU[0]) | (d > _DISTANCE_AU[1])
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
+
+def _record(**fields) -> InversionCurve:
+    """An InversionCurve; its own checks (e.g. a calibrated brightness overflowing to inf) raise BadSeries naming the curve."""
+    try:
+        return InversionCurve(**fields)
+    except ValueError as e:
+        raise BadSeries(f"{fields.get('name', '')}: {e}") from None
+
+
+def _check_sigma_rel(sigma_rel: float) -> None:
     if not (np.isfinite(sigma_rel) and 0 < sigma_rel < 1):
         raise BadSeries(f"sigma_rel: {sigma_rel!r}: expected a relative 1-sigma within (0, 1)")
+
+
+def _check_time_scale(time_scale: str) -> None:
     if time_scale not in _TIME_SCALES:
         raise BadSeries(f"time_scale: {time_scale!r}: expected one of {', '.join(_TIME_SCALES)}")
 
@@ -95,7 +121,7 @@ class _Lines:
 
     def integers(self, n: int, expected: str) -> tuple[int, list[int]]:
         k, words = self.next(expected)
-        if len(words) != n or not all(w.lstrip("+").isdigit() for w in words):
+        if len(words) != n or not all(w.isascii() and w.lstrip("+").isdigit() for w in words):
             raise BadSeries(f"{self.where} line {k}: {' '.join(words)[:60]!r}: expected {expected}")
         return k, [int(w) for w in words]
 
@@ -121,22 +147,29 @@ def _curve_from_rows(rows: np.ndarray, calibrated: bool, *, where: str, line: li
     sun_E, obs_E = rows[:, 2:5], rows[:, 5:8]
     r_au, delta_au = np.linalg.norm(sun_E, axis=1), np.linalg.norm(obs_E, axis=1)
     for label, d in (("Sun vector", r_au), ("observer vector", delta_au)):
-        if np.any(d == 0):
-            k = int(np.flatnonzero(d == 0)[0])
-            raise BadSeries(f"{where} line {line[k]}: {label} (0, 0, 0): expected a non-zero vector object -> body in au")
+        k = _first_bad_distance(d)
+        if k is not None:
+            raise BadSeries(f"{where} line {line[k]}: {label} of length {float(d[k]):g} au: expected {_DISTANCE_FORM}")
     b = rows[:, 1]
     if np.any(b <= 0):
         k = int(np.flatnonzero(b <= 0)[0])
         raise BadSeries(f"{where} line {line[k]}: brightness {float(b[k])!r}: expected an intensity > 0")
-    emitted = Time(rows[:, 0], format="jd", scale=time_scale)
-    observed = (emitted + delta_au * (AU_M / _C_M_S) * u.s).utc  # undo the light-time correction
+    jd = rows[:, 0]
+    if np.any((jd < _JD_RANGE[0]) | (jd > _JD_RANGE[1])):
+        k = int(np.flatnonzero((jd < _JD_RANGE[0]) | (jd > _JD_RANGE[1]))[0])
+        raise BadSeries(f"{where} line {line[k]}: JD {float(jd[k])!r}: expected a Julian date within [{_JD_RANGE[0]:.0f}, {_JD_RANGE[1]:.0f}]")
+    with warnings.catch_warnings():  # UTC before 1960 is ERFA's "dubious year": such old photometry is read as given
+        warnings.simplefilter("ignore", ErfaWarning)
+        emitted = Time(jd, format="jd", scale=time_scale)
+        observed = (emitted + delta_au * (AU_M / _C_M_S) * u.s).utc  # undo the light-time correction
     epoch = observed[0]
     t_s = (observed - epoch).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
         k = int(np.flatnonzero(np.diff(t_s) < 0)[0]) + 1
         raise BadSeries(f"{where} line {line[k]}: JD {float(rows[k, 0])!r} before the previous row: expected rows in time order")
-    brightness = mag_to_flux(0.0) * b / (r_au * delta_au) ** 2 if calibrated else b
-    return InversionCurve(
+    with np.errstate(over="ignore"):  # an overflow to inf is refused by the record's checks (_record)
+        brightness = mag_to_flux(0.0) * b / (r_au * delta_au) ** 2 if calibrated else b
+    return _record(
         t_s=t_s, epoch=epoch, brightness=brightness, sigma=sigma_rel * brightness,
         sun_dir_I=ecliptic_to_I(sun_E / r_au[:, None]), observer_dir_I=ecliptic_to_I(obs_E / delta_au[:, None]),
         sun_distance_m=r_au * AU_M, range_m=delta_au * AU_M, calibrated=calibrated, name=name,
@@ -154,7 +187,8 @@ def read_damit(path_or_text, *, sigma_rel: float = DEFAULT_SIGMA_REL, time_scale
     announced or lines left over, a row other than 8 finite decimal numbers, a zero Sun or observer
     vector, a brightness ≤ 0, rows out of time order.
     """
-    _check_options(sigma_rel, time_scale)
+    _check_sigma_rel(sigma_rel)
+    _check_time_scale(time_scale)
     where, text = _source(path_or_text)
     lines = _Lines(where, text)
     _, (n_curves,) = lines.integers(1, "the number of light curves, one integer >= 1")
@@ -195,7 +229,7 @@ def damit_text(curves, *, time_scale: str = "utc") -> str:
     curves = list(curves)
     if not curves or not all(isinstance(c, InversionCurve) for c in curves):
         raise BadSeries(f"curves: {len(curves)} item(s): expected a non-empty list of InversionCurve")
-    _check_options(DEFAULT_SIGMA_REL, time_scale)
+    _check_time_scale(time_scale)
     out = [f"{len(curves)}"]
     for curve in curves:
         out.append(f"{len(curve)} {int(curve.calibrated)}")
@@ -228,7 +262,7 @@ def from_lightcurve(lc: LightCurve, *, calibrated: bool = True, name: str | None
                         "(an ECSV from 'lcnav lightcurve render', or a CSV with sun_x..obs_z columns)")
     flux, sigma = _flux(lc.mag, lc.mag_err)
     scale = 1.0 if calibrated else float(np.mean(flux))
-    return InversionCurve(
+    return _record(
         t_s=lc.t_s, epoch=lc.time[0].utc, brightness=flux / scale, sigma=sigma / scale, sun_dir_I=lc.sun_dir_I,
         observer_dir_I=lc.observer_dir_I, sun_distance_m=lc.sun_distance_m, range_m=lc.range_m, calibrated=calibrated,
         name=name, meta={"format": "lcnav", **_plain_meta(lc.meta)},
@@ -236,8 +270,12 @@ def from_lightcurve(lc: LightCurve, *, calibrated: bool = True, name: str | None
 
 
 def _plain_meta(meta: dict) -> dict:
-    """The light curve's provenance worth keeping (target, truth, site, epoch), without large items."""
-    return {k: meta[k] for k in ("source", "target", "truth_pole_I", "truth_rate_rad_s", "site", "epoch") if k in meta}
+    """The light curve's provenance worth keeping (target, site, epoch), without large items.
+
+    Never a ``truth_*`` key: an inversion curve goes where a prior is built, and the truth must not
+    (``tests/studies/test_no_oracle.py``).
+    """
+    return {k: meta[k] for k in ("source", "target", "site", "epoch") if k in meta}
 
 
 # ---------------------------------------------------------------- observers' CSV with geometry
@@ -283,10 +321,18 @@ def _csv_times(table: Table, where: str, time_format: str) -> Time:
     cells = [str(c).strip() for c in np.asarray(table["time"])]
     numeric = all(_DECIMAL.match(c) for c in cells)
     values = _decimals(table, "time", where) if numeric else cells
+    form = f"ISO 8601 UTC text or decimal {time_format} in every row, Julian dates within [{_JD_RANGE[0]:.0f}, {_JD_RANGE[1]:.0f}]"
     try:
-        return Time(values, format=time_format if numeric else "isot", scale="utc")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ErfaWarning)
+            times = Time(values, format=time_format if numeric else "isot", scale="utc")
     except ValueError:
-        raise BadSeries(f"{where} column 'time': {cells[0][:40]!r}...: expected ISO 8601 UTC text or decimal {time_format} in every row") from None
+        raise BadSeries(f"{where} column 'time': {cells[0][:40]!r}...: expected {form}") from None
+    outside = (times.jd < _JD_RANGE[0]) | (times.jd > _JD_RANGE[1])
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise BadSeries(f"{where} column 'time' row {k + 1}: {cells[k][:40]!r}: expected {form}")
+    return times
 
 
 def read_geometry_csv(path, *, frame: str = "ecliptic", time_format: str = "jd", calibrated: bool = False,
@@ -312,7 +358,7 @@ def read_geometry_csv(path, *, frame: str = "ecliptic", time_format: str = "jd",
     path = Path(path)
     if frame not in _FRAMES:
         raise BadSeries(f"frame: {frame!r}: expected one of {', '.join(_FRAMES)}")
-    _check_options(sigma_rel, "utc")
+    _check_sigma_rel(sigma_rel)
     table, where = _csv_cells(path), path.name
     times = _csv_times(table, where, time_format)
     vec = {key: np.column_stack([_decimals(table, c, where) for c in cols]) for key, cols in _VECTORS.items()}
@@ -342,8 +388,9 @@ def _csv_curve(rows, times: Time, flux, sigma, vec: dict, flags, *, frame: str, 
         raise BadSeries(f"{where} column 'calibrated' curve {label!r}: {sorted(set(flags[rows].tolist()))}: expected one value, 0 or 1, per curve")
     for key, what in (("sun", "sun_x..sun_z"), ("obs", "obs_x..obs_z")):
         norm = np.linalg.norm(vec[key][rows], axis=1)
-        if np.any(norm == 0):
-            raise BadSeries(f"{where} columns {what} row {rows[np.flatnonzero(norm == 0)[0]] + 1}: (0, 0, 0): expected a non-zero vector in au")
+        k = _first_bad_distance(norm)
+        if k is not None:
+            raise BadSeries(f"{where} columns {what} row {rows[k] + 1}: length {float(norm[k]):g} au: expected {_DISTANCE_FORM}")
     for name_, a in (("flux", flux), ("flux_err or mag_err", sigma)):
         if np.any(a[rows] <= 0):
             k = rows[np.flatnonzero(a[rows] <= 0)[0]]
@@ -356,7 +403,7 @@ def _csv_curve(rows, times: Time, flux, sigma, vec: dict, flags, *, frame: str, 
     to_I = ecliptic_to_I if frame == "ecliptic" else np.asarray
     sun_I, obs_I = to_I(vec["sun"][rows]), to_I(vec["obs"][rows])
     r, d = np.linalg.norm(sun_I, axis=1), np.linalg.norm(obs_I, axis=1)
-    return InversionCurve(
+    return _record(
         t_s=t_s, epoch=t[0], brightness=flux[rows], sigma=sigma[rows], sun_dir_I=sun_I / r[:, None], observer_dir_I=obs_I / d[:, None],
         sun_distance_m=r * AU_M, range_m=d * AU_M, calibrated=bool(flags[rows[0]]), name=name, meta={"source": where, "format": "csv", "frame": frame},
     )  # fmt: skip

@@ -3,6 +3,8 @@
 import astropy.units as u
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from astropy.coordinates import BarycentricMeanEcliptic, SkyCoord
 from astropy.time import Time
 
@@ -209,13 +211,17 @@ BAD_DAMIT = {
     "non-numeric": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 bright 1 0 0 0 0 1\n", "line 5: '2451545.1 bright 1 0 0 0 0 1': expected 8"),
     "nan": ("1\n3 0\n" + "2451545.0 nan 1 0 0 0 0 1\n" * 3, "line 3: '2451545.0 nan 1 0 0 0 0 1': expected 8 decimal"),
     "seven columns": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0\n" * 3, "line 3: '2451545.0 1 1 0 0 0 0': expected 8 decimal"),
-    "zero sun vector": ("1\n3 0\n2451545.0 1 0 0 0 0 0 1\n" + "2451545.1 1 1 0 0 0 0 1\n" * 2, "line 3: Sun vector (0, 0, 0): expected a non-zero vector"),
-    "zero observer vector": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 1 1 0 0 0 0 0\n", "line 5: observer vector (0, 0, 0): expected"),
+    "zero sun vector": ("1\n3 0\n2451545.0 1 0 0 0 0 0 1\n" + "2451545.1 1 1 0 0 0 0 1\n" * 2,
+                        "line 3: Sun vector of length 0 au: expected a vector from the object of length within [1e-12"),
+    "zero observer vector": ("1\n3 0\n" + "2451545.0 1 1 0 0 0 0 1\n" * 2 + "2451545.1 1 1 0 0 0 0 0\n", "line 5: observer vector of length 0 au: expected"),
     "N = 0": ("1\n0 0\n", "line 2: '0 0': expected the header of curve 1 of 1: 'N FLAG', N >= 3"),
     "flag 2": ("1\n3 2\n" + "2451545.0 1 1 0 0 0 0 1\n" * 3, "line 2: '3 2': expected the header"),
     "negative brightness": ("1\n3 0\n" + "2451545.0 -1 1 0 0 0 0 1\n" * 3, "line 3: brightness -1.0: expected an intensity > 0"),
     "time order": ("1\n3 0\n2451545.2 1 1 0 0 0 0 1\n2451545.1 1 1 0 0 0 0 1\n2451545.3 1 1 0 0 0 0 1\n", "line 4: JD 2451545.1 before the previous"),
     "empty": ("\n\n", "end of text after line 0: expected the number of light curves"),
+    "tiny vectors": ("1\n3 1\n" + "2451545.0 1 1e-13 0 0 0 0 1\n" * 3, "line 3: Sun vector of length 1e-13 au: expected"),
+    "unicode digit": ("1\n3 \u00b2\n" + "2451545.0 1 1 0 0 0 0 1\n" * 3, "line 2: '3 \u00b2': expected the header"),
+    "JD beyond ERFA": ("1\n3 0\n" + "99999999999 1 1 0 0 0 0 1\n" * 3, "line 3: JD 99999999999.0: expected a Julian date within [2400000, 2500000]"),
 }
 
 
@@ -264,3 +270,69 @@ def test_pole_angles_round_trip_and_agree_with_astropy_ecliptic_coordinates():
         pole_to_ecliptic([0.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="latitude 2 rad: expected within"):
         pole_from_ecliptic(0.0, 2.0)
+
+
+_WORDS = st.sampled_from(["", "0", "-1", "3", "1 0", "3 1", "0 0", "nan", "inf", "1e999", "0x10", "1_0", "abc", "\t", "2451545.5", "1e-300", "-0.5"])
+
+
+@st.composite
+def damit_texts(draw):
+    """DAMIT texts near the valid snippet: lines dropped, repeated or with one word replaced."""
+    lines = SNIPPET.splitlines()
+    for _ in range(draw(st.integers(0, 3))):
+        k = draw(st.integers(0, len(lines) - 1))
+        action = draw(st.sampled_from(["drop", "repeat", "word"]))
+        if action == "drop":
+            del lines[k]
+        elif action == "repeat":
+            lines.insert(k, lines[k])
+        elif lines[k].split():
+            words = lines[k].split()
+            words[draw(st.integers(0, len(words) - 1))] = draw(_WORDS)
+            lines[k] = " ".join(words)
+        if not lines:
+            break
+    return "\n".join(lines) + "\n"
+
+
+@settings(max_examples=120, deadline=None, derandomize=True)
+@given(damit_texts())
+def test_damit_reader_returns_usable_curves_or_one_line_bad_series(text):
+    """Property: any text gives valid curves (unit vectors, positive values, ordered finite times) or a one-line BadSeries."""
+    try:
+        curves = read_damit(text)
+    except BadSeries as e:
+        assert "\n" not in str(e) and ": expected" in str(e) and "np." not in str(e)
+        return
+    assert 1 <= len(curves) <= 2
+    for c in curves:
+        assert np.all(np.isfinite(c.t_s)) and np.all(np.diff(c.t_s) >= 0) and np.all(c.brightness > 0) and np.all(c.sigma > 0)
+        np.testing.assert_allclose(np.linalg.norm(c.sun_dir_I, axis=1), 1.0, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(c.observer_dir_I, axis=1), 1.0, atol=1e-12)
+
+
+_CSV_HEAD = "time,mag,sun_x,sun_y,sun_z,obs_x,obs_y,obs_z"
+_CSV_ROW = "{t},10.0,1,0,0,0,1,0"
+BAD_CSV = {
+    "no geometry": ("time,mag\n" + "".join(f"{2460000.5 + k},10\n" for k in range(3)), "header ['time', 'mag']: expected columns time, mag or flux, sun_x"),
+    "zero vector": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)) + "2460003.5,10,0,0,0,0,1,0\n",
+                    "columns sun_x..sun_z row 3: length 0 au: expected a vector from the object"),
+    "text cell": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)) + "2460003.5,dim,1,0,0,0,1,0\n",
+                  "column 'mag' row 3: 'dim': expected a decimal number"),
+    "two rows": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(2)), "2 row(s): expected at least 3 samples"),
+    "mixed flag": ("curve,calibrated," + _CSV_HEAD + "\n" + "".join(f"a,{k % 2}," + _CSV_ROW.format(t=2460000.5 + k) + "\n" for k in range(3)),
+                   "column 'calibrated' curve 'a': [0.0, 1.0]: expected one value, 0 or 1, per curve"),
+    "time order": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=t) + "\n" for t in (2460001.5, 2460000.5, 2460002.5)),
+                   "column 'time' row 2: before the previous row"),
+    "year 1066": (_CSV_HEAD + "\n" + "".join(_CSV_ROW.format(t=2110701.5 + k) + "\n" for k in range(3)), "column 'time' row 1: '2110701.5': expected"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_CSV))
+def test_malformed_geometry_csv_is_refused_with_the_file_value_and_expected_form(tmp_path, case):
+    text, message = BAD_CSV[case]
+    path = tmp_path / "obs.csv"
+    path.write_text(text)
+    with pytest.raises(BadSeries) as err:
+        read_inversion_curves(path)
+    assert message in str(err.value) and str(err.value).startswith("obs.csv") and "\n" not in str(err.value)
