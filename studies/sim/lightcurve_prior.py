@@ -30,7 +30,7 @@ import numpy as np
 from estimators.prior import BodyRatePrior
 from studies.sim.scenarios import Scenario
 
-__all__ = ["SpinTruth", "ObservedNights", "BuiltPrior", "observe_nights", "build_prior", "score_prior", "OBSERVER_META"]
+__all__ = ["spin_axis", "SpinTruth", "ObservedNights", "BuiltPrior", "observe_nights", "build_prior", "score_prior", "OBSERVER_META"]
 
 #: The metadata an observer's light-curve file keeps: provenance and geometry, never the truth.
 OBSERVER_META = ("target", "site", "orbit", "epoch", "arc_start_s", "cadence_s", "duration_s", "noise", "renderer", "night")
@@ -86,6 +86,15 @@ def _isotropic(rng: np.random.Generator) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def spin_axis(scenario: Scenario) -> tuple[np.ndarray, float]:
+    """The scenario's initial spin axis ``ω_T0/|ω_T0|`` (target frame) and rate ``|ω_T0|`` (rad/s)."""
+    w = np.asarray(scenario.w_T0_T_rad_s, dtype=float)
+    rate = float(np.linalg.norm(w))
+    if rate == 0.0:
+        raise ValueError(f"scenario {scenario.name} has no spin: a light curve cannot give it a rate prior")
+    return w / rate, rate
+
+
 def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str = "atlas-centaur", nights: int = 3,
                    night_spacing_days: float = 2.0, duration_s: float = 600.0, cadence_s: float = 1.0, resolution_px: int = 64,
                    spp: int = 4, progress=None) -> ObservedNights:
@@ -98,7 +107,6 @@ def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str 
     from lightcurves.render import UnresolvedRenderer
     from lightcurves.simulate import DEFAULT_EPOCH, DEFAULT_ORBIT, simulate_lightcurve
     from lightcurves.targets import get_target
-    from studies.sim.chain import spin_axis
 
     if int(nights) < 1:
         raise ValueError(f"nights: {nights}: expected at least 1")
