@@ -45,12 +45,10 @@ def fibonacci_sphere(n: int) -> np.ndarray:
 
 def scattering(mu0, mu, lambert_weight: float) -> np.ndarray:
     """Lommel–Seeliger + Lambert law ``S = μ₀μ/(μ₀+μ) + c·μ₀μ`` where μ₀, μ > 0, else 0 (same shape as the inputs)."""
-    mu0 = np.asarray(mu0, dtype=float)
-    mu = np.asarray(mu, dtype=float)
-    lit = (mu0 > 0) & (mu > 0)
-    m0, m = np.where(lit, mu0, 0.0), np.where(lit, mu, 0.0)
-    prod = m0 * m
-    return prod / np.where(lit, m0 + m, 1.0) + lambert_weight * prod
+    m0 = np.maximum(np.asarray(mu0, dtype=float), 0.0)
+    m = np.maximum(np.asarray(mu, dtype=float), 0.0)
+    prod = m0 * m  # 0 unless both > 0, so the quotient needs no mask
+    return prod * (1.0 / np.maximum(m0 + m, 1e-300) + lambert_weight)
 
 
 def _directions(name: str, v) -> np.ndarray:

@@ -25,14 +25,15 @@ about the pole (:func:`lightcurves.geometry.bisector_rate`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from astropy.time import Time
 
 from lightcurves.inversion.data import InversionCurve
 
-__all__ = ["SpinState", "C_LIGHT_M_S", "OBLIQUITY_J2000_RAD", "pole_frame", "axis_frame", "rotation_phase", "C_TI", "body_directions",
+__all__ = ["SpinState", "C_LIGHT_M_S", "OBLIQUITY_J2000_RAD", "pole_frame", "axis_frame", "emission_time_s", "rotation_phase", "unspin", "C_TI",
+           "body_directions",
            "ecliptic_from_equatorial", "equatorial_from_ecliptic", "radec_from_vector", "vector_from_radec"]
 
 C_LIGHT_M_S = 299_792_458.0
@@ -91,7 +92,7 @@ class SpinState:
     period_s: float
     phase_rad: float
     epoch: Time
-    axis_T: np.ndarray = np.array([0.0, 0.0, 1.0])
+    axis_T: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     def __post_init__(self):
         object.__setattr__(self, "pole_I", _unit("pole_I", self.pole_I))
@@ -121,16 +122,21 @@ class SpinState:
         return radec_from_vector(self.pole_I)
 
 
+def emission_time_s(curve: InversionCurve, epoch: Time) -> np.ndarray:
+    """(N,) s: when the light of each sample left the target, ``t − ρ/c``, counted from ``epoch``."""
+    return (curve.epoch - epoch).to_value("s") + curve.t_s - curve.range_m / C_LIGHT_M_S
+
+
 def rotation_phase(state: SpinState, curve: InversionCurve) -> np.ndarray:
     """φ(t) (N,) rad at each sample of ``curve``: φ₀ + ω (t − t₀ − ρ/c) (module docstring)."""
-    dt = (curve.epoch - state.epoch).to_value("s") + curve.t_s - curve.range_m / C_LIGHT_M_S
-    return state.phase_rad + state.rate_rad_s * dt
+    return state.phase_rad + state.rate_rad_s * emission_time_s(curve, state.epoch)
 
 
-def _rz_transpose_apply(phi, v_P) -> np.ndarray:
-    """R_z(φ)ᵀ v for (N,) angles and (N, 3) vectors."""
+def unspin(phi, v_P) -> np.ndarray:
+    """R_z(φ)ᵀ v: vectors (..., N, 3) of the pole frame turned back by the angles φ (N,) (broadcast over leading axes)."""
     c, s = np.cos(phi), np.sin(phi)
-    return np.stack([c * v_P[:, 0] + s * v_P[:, 1], -s * v_P[:, 0] + c * v_P[:, 1], v_P[:, 2]], axis=1)
+    x, y = v_P[..., 0], v_P[..., 1]
+    return np.stack([c * x + s * y, -s * x + c * y, v_P[..., 2]], axis=-1)
 
 
 def C_TI(state: SpinState, curve: InversionCurve) -> np.ndarray:
@@ -147,8 +153,8 @@ def body_directions(state: SpinState, curve: InversionCurve) -> tuple[np.ndarray
     """Sun and observer unit directions in the body frame T, (N, 3) each, at the samples of ``curve``."""
     phi = rotation_phase(state, curve)
     C_IP, C_TA = pole_frame(state.pole_I), axis_frame(state.axis_T)
-    sun_T = _rz_transpose_apply(phi, curve.sun_dir_I @ C_IP) @ C_TA.T
-    obs_T = _rz_transpose_apply(phi, curve.observer_dir_I @ C_IP) @ C_TA.T
+    sun_T = unspin(phi, curve.sun_dir_I @ C_IP) @ C_TA.T
+    obs_T = unspin(phi, curve.observer_dir_I @ C_IP) @ C_TA.T
     return sun_T, obs_T
 
 

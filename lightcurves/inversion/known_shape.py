@@ -1,0 +1,499 @@
+"""Known-shape facet forward model: the brightness of a target mesh thousands of times faster than Mitsuba.
+
+:class:`KnownShapeModel` turns a :class:`~lightcurves.targets.Target` into facets (area ``A_f``,
+outward geometric normal ``n_f``, shading normal ``m_f``, centroid, material) and evaluates the
+radiant intensity toward the observer, with the same meaning and unit as
+:meth:`lightcurves.render.UnresolvedRenderer.intensity` (W/sr under ``E = 1361 W/m²`` sunlight)::
+
+    I(s, o) = E Σ_f A_f (n_f·o)₊ f_r(m_f; s, o) (m_f·s)₊ vis_f(s, o)                       (1)
+
+with ``s``, ``o`` the unit directions from the target to the Sun and to the observer in T. This is
+the single-scattering integral Mitsuba's ``direct`` integrator estimates with a directional Sun and
+an orthographic sensor: a pixel sees the projected area ``A (n·o)`` (geometric normal) and the
+BSDF is evaluated, with its Sun cosine, in the shading frame (``m_f`` = the interpolated vertex
+normal of smooth parts, ``n_f`` for flat ones). ``vis_f(s, o)`` is the fraction of the facet lit
+by the Sun *and* seen by the observer (self-shadowing and self-occlusion).
+
+The BRDF is :func:`lightcurves.scene.cook_torrance_brdf`, ``f_r = d/π + s F D G₁(i) G₁(o)/(4 cos θ_i
+cos θ_o)``, rearranged so that both cosines cancel in the specular term (no 0/0 at grazing):
+``f_r (m·s) = d/π (m·s) + s F(s·h) D(m·h) G₁(m·s) G₁(m·o) / (4 (m·o))``. The Fresnel factor
+depends on ``s·h`` only, so it is computed once per sample and material. ``G₁`` is Walter et
+al.'s rational approximation of Beckmann–Smith masking (EGSR 2007, eq. 27) — what Mitsuba 3's
+``roughconductor`` evaluates, measured here to agree with Mitsuba's ``bsdf.eval`` to 3e-6
+(the exact Smith form of ``cook_torrance_brdf`` differs from it by up to 0.6 % at grazing).
+
+Self-shadowing: each facet is covered by ``16`` sample points (the centroids of its
+two-fold midpoint subdivision); from each point a ray is cast once per model, with Mitsuba's
+``Scene.ray_test``, toward each of ``n_directions`` Fibonacci-sphere directions in the facet's
+front hemisphere. The table stores one 16-bit mask per (facet, direction): the points that see
+that direction. At run time the Sun and the observer directions are each located in the
+spherical Delaunay triangle of table directions that holds them (barycentric weights ``w``), and
+``vis_f = Σ_ab w_a(s) w_b(o) popcount(mask_a & mask_b) / 16`` — the fraction of points both lit
+and seen, so a shadow and an occlusion of the same corner are not counted twice. Barycentric
+interpolation instead of the nearest direction cut the box-wing error against a 256-px Mitsuba
+reference from 1.2 to 0.3 % rms (2048 directions) and vespa's from 2.4 to 0.4 % (1024). Only facets that
+another part of the mesh can hide (some vertex above the facet's plane) carry a table; the
+others (every facet of a convex body) are always visible in their front hemisphere.
+
+Large triangles are first bisected along their longest edge until no edge exceeds
+``max_edge_m`` so that shadow boundaries are resolved (box-wing panels are metres long).
+:meth:`KnownShapeModel.coarse` merges facets by part, material and normal for a cheap search
+model.
+
+References: Kaasalainen & Torppa, Icarus 153 (2001) §2 (the facet brightness sum); Cook &
+Torrance, ACM TOG 1 (1982); Walter, Marschner, Li & Torrance, EGSR 2007.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numba
+import numpy as np
+from scipy.spatial import ConvexHull, cKDTree
+
+from lightcurves import scene as S
+from lightcurves.targets import Material, Target
+
+__all__ = ["KnownShapeModel", "fibonacci_sphere"]
+
+_SUB_LEVEL_POINTS = 16  # sample points per facet for the shadow table (one bit each of a uint16)
+_G1_TABLE = 2049  # G₁ tabulated on cos θ ∈ [0, 1]
+_D_CUTOFF = 60.0  # exp(-60) ≈ 1e-26: the Beckmann lobe is zero beyond
+
+
+class KnownShapeError(ValueError):
+    """Bad input to the known-shape model (names the field and the expected form)."""
+
+
+def fibonacci_sphere(n: int) -> np.ndarray:
+    """``n`` nearly uniform unit vectors (n, 3) on the sphere: the Fibonacci lattice (González 2010, Math. Geosci. 42)."""
+    if int(n) < 1:
+        raise KnownShapeError(f"n_directions: {n}: expected an integer >= 1")
+    k = np.arange(int(n)) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
+
+
+def _g1_walter(cos_v, alpha: float) -> np.ndarray:
+    """Beckmann–Smith ``G₁`` in Walter et al.'s rational form (EGSR 2007, eq. 27), as Mitsuba 3 evaluates it."""
+    c = np.clip(np.asarray(cos_v, dtype=float), 1e-12, 1.0)
+    with np.errstate(divide="ignore"):
+        a = np.minimum(c / (alpha * np.sqrt(np.maximum(1.0 - c * c, 0.0))), 1.6)  # normal incidence: a = inf -> G₁ = 1
+    return np.where(a >= 1.6, 1.0, (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a))
+
+
+class _SphereInterpolator:
+    """Barycentric interpolation over a triangulated set of unit directions (the spherical Delaunay triangulation).
+
+    The convex hull of points on the unit sphere is their spherical Delaunay triangulation
+    (Brown 1979, IPL 9). A query ``q`` is located among the triangles around its nearest
+    direction; its weights are the barycentric coordinates of the central projection of ``q``
+    onto that triangle's plane (``b = M⁻¹ q / Σ``), clipped at 0 where ``q`` falls just outside
+    (the nearest vertex of a Delaunay triangulation need not belong to the containing triangle).
+    """
+
+    def __init__(self, directions: np.ndarray):
+        self.tree = cKDTree(directions)
+        tri = ConvexHull(directions).simplices  # (T, 3)
+        self.tri = tri
+        self.inv = np.linalg.inv(directions[tri].transpose(0, 2, 1))  # columns = corners: b = inv @ q
+        order = np.argsort(tri.ravel(), kind="stable")
+        owner = order // 3
+        counts = np.bincount(tri.ravel(), minlength=len(directions))
+        self.around = np.full((len(directions), counts.max()), -1, np.int64)
+        start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        vertex = tri.ravel()[order]
+        self.around[vertex, np.arange(len(order)) - start[vertex]] = owner
+
+    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Indices (N, 3) of the corner directions and weights (N, 3), summing to 1, for unit queries ``q`` (N, 3)."""
+        cand = self.around[self.tree.query(q)[1]]  # (N, deg) triangles around the nearest direction
+        b = np.einsum("ndij,nj->ndi", self.inv[np.maximum(cand, 0)], q)
+        b = b / b.sum(axis=2, keepdims=True)
+        score = np.where(cand >= 0, b.min(axis=2), -np.inf)
+        best = score.argmax(axis=1)
+        r = np.arange(len(q))
+        w = np.maximum(b[r, best], 0.0)
+        return self.tri[cand[r, best]], w / w.sum(axis=1, keepdims=True)
+
+
+# ---------------------------------------------------------------- facets
+
+
+def _bisect_long_edges(V: np.ndarray, N: np.ndarray, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
+    """Split triangles (T, 3, 3) along their longest edge until every edge is <= ``max_edge``.
+
+    ``N`` (T, 3, 3) are the per-corner shading normals, interpolated linearly at each new corner
+    (barycentric interpolation, as a renderer does), not normalised.
+    """
+    done_V, done_N = [], []
+    while len(V):
+        e = np.stack([np.linalg.norm(V[:, (i + 1) % 3] - V[:, i], axis=1) for i in range(3)], 1)
+        long = e.max(axis=1) > max_edge
+        done_V.append(V[~long])
+        done_N.append(N[~long])
+        V, N, e = V[long], N[long], e[long]
+        if not len(V):
+            break
+        i = e.argmax(axis=1)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        r = np.arange(len(V))
+        mV = 0.5 * (V[r, i] + V[r, j])
+        mN = 0.5 * (N[r, i] + N[r, j])
+        a = np.stack([V[r, i], mV, V[r, k]], 1), np.stack([mV, V[r, j], V[r, k]], 1)
+        b = np.stack([N[r, i], mN, N[r, k]], 1), np.stack([mN, N[r, j], N[r, k]], 1)
+        V, N = np.concatenate(a), np.concatenate(b)
+    return np.concatenate(done_V), np.concatenate(done_N)
+
+
+def _sub_barycentrics() -> np.ndarray:
+    """Barycentric coordinates (16, 3) of the centroids of a triangle's two-fold midpoint subdivision (equal areas)."""
+    out = []
+    for i in range(4):
+        for j in range(4 - i):
+            out.append([(i + 1 / 3), (j + 1 / 3), 4 - i - j - 2 / 3])  # upward sub-triangles
+            if i + j < 3:
+                out.append([(i + 2 / 3), (j + 2 / 3), 4 - i - j - 4 / 3])  # downward ones
+    b = np.array(out) / 4.0
+    assert b.shape == (_SUB_LEVEL_POINTS, 3)
+    return b
+
+
+def _facets(target: Target, max_edge: float | None):
+    """Per-facet arrays of all parts: area, geometric normal, shading normal, centroid, corners, material, part, occludable.
+
+    With ``max_edge`` (m), the occludable triangles (:func:`_occludable`) are bisected down to it;
+    the others are never shadowed and keep their size.
+    """
+    cols: dict[str, list] = {k: [] for k in ("area", "n", "m", "c", "corners", "mat", "part", "hidden")}
+    materials: list[Material] = []
+    all_v = np.concatenate([p.vertices_T for p in target.parts])
+    tol = 1e-6 * target.radius_m
+    for ip, p in enumerate(target.parts):
+        V = np.asarray(p.vertices_T, dtype=float)[np.asarray(p.faces)]
+        N = (np.asarray(p.normals_T, dtype=float)[np.asarray(p.faces)] if p.normals_T is not None else None)
+        cross = np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
+        keep = np.linalg.norm(cross, axis=1) > 1e-12
+        V = V[keep]
+        n_g = cross[keep] / np.linalg.norm(cross[keep], axis=1, keepdims=True)
+        N = np.repeat(n_g[:, None], 3, 1) if N is None else N[keep]
+        hidden = _occludable(n_g, V, all_v, tol) if max_edge is not None else np.zeros(len(V), bool)
+        if hidden.any():
+            Vh, Nh = _bisect_long_edges(V[hidden], N[hidden], max_edge)
+            V, N = np.concatenate([V[~hidden], Vh]), np.concatenate([N[~hidden], Nh])
+            hidden = np.arange(len(V)) >= int((~hidden).sum())
+        cross = np.cross(V[:, 1] - V[:, 0], V[:, 2] - V[:, 0])
+        twice_area = np.linalg.norm(cross, axis=1)
+        m = N.mean(axis=1)  # the interpolated shading normal at the centroid
+        m /= np.linalg.norm(m, axis=1, keepdims=True)
+        if p.material not in materials:
+            materials.append(p.material)
+        cols["area"].append(0.5 * twice_area)
+        cols["n"].append(cross / twice_area[:, None])
+        cols["m"].append(m)
+        cols["c"].append(V.mean(axis=1))
+        cols["corners"].append(V)
+        cols["mat"].append(np.full(len(V), materials.index(p.material)))
+        cols["part"].append(np.full(len(V), ip))
+        cols["hidden"].append(hidden)
+    return {k: np.concatenate(v) for k, v in cols.items()}, tuple(materials)
+
+
+def _occludable(normal: np.ndarray, corners: np.ndarray, all_vertices: np.ndarray, tol: float) -> np.ndarray:
+    """Facets that some vertex of the mesh lies above (by > ``tol`` m): only these can be shadowed."""
+    out = np.zeros(len(normal), bool)
+    offset = np.einsum("fk,fk->f", normal, corners[:, 0])
+    for lo in range(0, len(normal), 512):
+        heights = normal[lo:lo + 512] @ all_vertices.T - offset[lo:lo + 512, None]
+        out[lo:lo + 512] = heights.max(axis=1) > tol
+    return out
+
+
+def _shadow_masks(target: Target, normal, corners, directions, eps: float, variant: str | None) -> np.ndarray:
+    """uint16 masks (F, K): bit b set when sub-point b of facet f sees direction k (Mitsuba ``ray_test``)."""
+    import mitsuba as mi
+
+    S.select_variant(variant)
+    if not mi.variant().startswith("llvm"):
+        raise KnownShapeError(f"variant: {mi.variant()}: expected an LLVM variant (vectorised ray casting) for the shadow table; "
+                              "install libLLVM >= 16 or build the model with shadows=False")
+    scene = mi.load_dict(S.scene_dict(target, [0.0, 0.0, 1.0]))
+    bary = _sub_barycentrics()
+    points = np.einsum("bi,fik->fbk", bary, corners) + eps * normal[:, None, :]  # (F, 16, 3)
+    front = normal @ directions.T > 0.0  # (F, K)
+    masks = np.zeros(front.shape, np.uint16)
+    fi, ki = np.nonzero(front)
+    chunk = max(1, 2_000_000 // _SUB_LEVEL_POINTS)
+    for lo in range(0, len(fi), chunk):
+        f, k = fi[lo:lo + chunk], ki[lo:lo + chunk]
+        o = points[f].reshape(-1, 3).astype(np.float32)
+        d = np.repeat(directions[k], _SUB_LEVEL_POINTS, axis=0).astype(np.float32)
+        ray = mi.Ray3f(mi.Point3f(*(mi.Float(o[:, i]) for i in range(3))), mi.Vector3f(*(mi.Float(d[:, i]) for i in range(3))))
+        free = ~np.asarray(scene.ray_test(ray), dtype=bool).reshape(-1, _SUB_LEVEL_POINTS)
+        masks[f, k] = (free.astype(np.uint16) << np.arange(_SUB_LEVEL_POINTS, dtype=np.uint16)).sum(axis=1, dtype=np.uint16)
+    return masks
+
+
+# ---------------------------------------------------------------- the kernel
+
+_POPCOUNT16 = np.array([bin(i).count("1") for i in range(1 << 16)], dtype=np.uint8)
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _visible_fraction(masks, popcount, r, ks, ws, ko, wo):  # pragma: no cover - compiled
+    """``vis_f`` of facet row ``r``: Σ_ab w_a(s) w_b(o) popcount(mask_a(s) & mask_b(o)) / 16 (module docstring)."""
+    vis = 0.0
+    for a in range(3):
+        for b in range(3):
+            vis += ws[a] * wo[b] * popcount[masks[ks[a], r] & masks[ko[b], r]]
+    return vis / 16.0
+
+
+@numba.njit(cache=True, fastmath=True, inline="always")
+def _beckmann_lobe(ch, cs, co, inv_a2, d_norm, g1):  # pragma: no cover - compiled
+    """``D(m·h) G₁(m·s) G₁(m·o) / (4 m·o)`` (1/sr); zero beyond ``exp(-60)`` of the peak."""
+    if ch <= 0.0:
+        return 0.0
+    ch2 = ch * ch
+    x = (1.0 - ch2) / ch2 * inv_a2
+    if x >= _D_CUTOFF:
+        return 0.0
+    top = g1.shape[0] - 1
+    return d_norm * np.exp(-x) / (ch2 * ch2) * g1[int(cs * top + 0.5)] * g1[int(co * top + 0.5)] / (4.0 * co)
+
+
+@numba.njit(cache=True, fastmath=True)
+def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, area, n, m, mat, diffuse_pi, spec, inv_a2, d_norm, g1, fresnel,
+                      vis_row, masks, popcount, out):  # pragma: no cover - compiled
+    """Eq. (1) for each sample: ``out[j] = Σ_f`` over facets, flat loop with early exits (numba, one core)."""
+    for j in range(sun.shape[0]):
+        sx, sy, sz = sun[j, 0], sun[j, 1], sun[j, 2]
+        ox, oy, oz = obs[j, 0], obs[j, 1], obs[j, 2]
+        hx, hy, hz = half[j, 0], half[j, 1], half[j, 2]
+        acc = 0.0
+        for f in range(area.shape[0]):
+            cg = n[f, 0] * ox + n[f, 1] * oy + n[f, 2] * oz
+            cs = m[f, 0] * sx + m[f, 1] * sy + m[f, 2] * sz
+            co = m[f, 0] * ox + m[f, 1] * oy + m[f, 2] * oz
+            if cg <= 0.0 or cs <= 0.0 or co <= 0.0:
+                continue
+            vis = 1.0 if vis_row[f] < 0 else _visible_fraction(masks, popcount, vis_row[f], ks[j], ws[j], ko[j], wo[j])
+            q = mat[f]
+            term = diffuse_pi[q] * cs
+            if spec[q] > 0.0:
+                ch = m[f, 0] * hx + m[f, 1] * hy + m[f, 2] * hz
+                term += spec[q] * fresnel[j, q] * _beckmann_lobe(ch, cs, co, inv_a2[q], d_norm[q], g1[q])
+            acc += area[f] * cg * term * vis
+        out[j] = acc
+
+
+# ---------------------------------------------------------------- the model
+
+
+def _directions(name: str, v) -> np.ndarray:
+    a = np.atleast_2d(np.asarray(v, dtype=float))
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise KnownShapeError(f"{name}: shape {np.shape(v)}: expected (N, 3) unit vectors in T")
+    if not np.isfinite(a).all():
+        raise KnownShapeError(f"{name}: non-finite values: expected finite unit vectors")
+    norm = np.sqrt(np.einsum("ij,ij->i", a, a))
+    if not np.all(np.abs(norm - 1.0) < 1e-6):
+        raise KnownShapeError(f"{name}: norms from {norm.min():.6g} to {norm.max():.6g}: expected unit vectors")
+    return np.ascontiguousarray(a)
+
+
+@dataclass(frozen=True, eq=False)
+class KnownShapeModel:
+    """Facet model of a known target (eq. 1 of the module docstring); build it with :meth:`from_target`.
+
+    Arrays are per facet (``F`` facets): ``area_m2`` (F,) m², ``normal_T`` (F, 3) outward
+    geometric unit normals, ``shading_normal_T`` (F, 3) unit normals the BRDF is evaluated
+    with, ``centroid_T`` (F, 3) m, ``material_index`` (F,) into ``materials``, ``part_index``
+    (F,) into ``part_names``. The shadow table: ``directions_T`` (K, 3) unit, ``vis_row`` (F,)
+    column of ``vis_masks`` or -1 (never hidden), ``vis_masks`` (K, R) uint16 (bit b: sample point
+    b of the facet sees that direction; direction-major so one sample reads one row).
+    """
+
+    area_m2: np.ndarray
+    normal_T: np.ndarray
+    shading_normal_T: np.ndarray
+    centroid_T: np.ndarray
+    material_index: np.ndarray
+    part_index: np.ndarray
+    materials: tuple[Material, ...]
+    part_names: tuple[str, ...]
+    directions_T: np.ndarray
+    vis_row: np.ndarray
+    vis_masks: np.ndarray
+    irradiance_w_m2: float = S.SUN_IRRADIANCE_W_M2
+    _lookup: _SphereInterpolator | None = field(init=False, repr=False)
+    _tables: tuple = field(init=False, repr=False)
+
+    def __post_init__(self):
+        lookup = _SphereInterpolator(self.directions_T) if len(self.directions_T) else None
+        mats = self.materials
+        cos = np.linspace(0.0, 1.0, _G1_TABLE)
+        g1 = np.stack([_g1_walter(cos, mt.roughness) for mt in mats])
+        a2 = np.array([mt.roughness**2 for mt in mats])
+        tables = (
+            np.array([mt.diffuse_albedo / np.pi for mt in mats]),
+            np.array([mt.specular_albedo for mt in mats]),
+            1.0 / a2,
+            1.0 / (np.pi * a2),
+            g1,
+        )
+        object.__setattr__(self, "_lookup", lookup)
+        object.__setattr__(self, "_tables", tables)
+
+    # ------------------------------------------------------------ construction
+
+    @classmethod
+    def from_target(cls, target: Target, *, max_edge_m: float | None = None, shadows: bool = True, n_directions: int = 2048,
+                    variant: str | None = None) -> KnownShapeModel:
+        """Facets of every part of ``target``, with (``shadows=True``) the self-shadowing table.
+
+        ``max_edge_m`` (default ``target.radius_m / 4``): triangles that can be shadowed are bisected
+        until no edge is longer, so a shadow boundary is resolved to about a quarter of that (16 sample points
+        per facet). ``n_directions``: Fibonacci directions of the shadow table (nearest-neighbour
+        spacing ≈ ``sqrt(4π/n)`` rad, 4.5° at 2048). ``variant``: the Mitsuba variant used for
+        the ray casting (an LLVM one; see :func:`lightcurves.scene.select_variant`).
+        """
+        if not isinstance(target, Target):
+            raise KnownShapeError(f"target: {type(target).__name__}: expected a lightcurves.targets.Target")
+        max_edge = target.radius_m / 4.0 if max_edge_m is None else float(max_edge_m)
+        if not (np.isfinite(max_edge) and max_edge > 0):
+            raise KnownShapeError(f"max_edge_m: {max_edge_m}: expected a length > 0 in metres")
+        cols, materials = _facets(target, max_edge if shadows else None)
+        n_facets = len(cols["area"])
+        directions = np.zeros((0, 3))
+        vis_row = np.full(n_facets, -1, np.int32)
+        masks = np.zeros((0, 0), np.uint16)
+        if shadows:
+            hidden = cols["hidden"]
+            if hidden.any():
+                directions = fibonacci_sphere(n_directions)
+                idx = np.nonzero(hidden)[0]
+                m = _shadow_masks(target, cols["n"][idx], cols["corners"][idx], directions, 1e-4 * target.radius_m, variant)
+                front = cols["n"][idx] @ directions.T > 0.0
+                full = np.uint16((1 << _SUB_LEVEL_POINTS) - 1)
+                shadowed = ((m != full) & front).any(axis=1)  # drop rows that are never hidden in practice
+                masks = np.ascontiguousarray(m[shadowed].T)
+                vis_row[idx[shadowed]] = np.arange(int(shadowed.sum()), dtype=np.int32)
+                if not shadowed.any():
+                    directions = np.zeros((0, 3))
+        return cls(
+            area_m2=cols["area"], normal_T=cols["n"], shading_normal_T=cols["m"], centroid_T=cols["c"],
+            material_index=cols["mat"].astype(np.int32), part_index=cols["part"].astype(np.int32), materials=materials,
+            part_names=tuple(p.name for p in target.parts), directions_T=directions, vis_row=vis_row, vis_masks=masks,
+        )
+
+    @property
+    def n_facets(self) -> int:
+        """Number of facets ``F``."""
+        return len(self.area_m2)
+
+    def unshadowed(self) -> KnownShapeModel:
+        """The same facets with every facet visible in its front hemisphere (no shadow table)."""
+        return replace(self, directions_T=np.zeros((0, 3)), vis_row=np.full(self.n_facets, -1, np.int32), vis_masks=np.zeros((0, 0), np.uint16))
+
+    def coarse(self, max_facets: int) -> KnownShapeModel:
+        """A cheaper model of at most ``max_facets`` facets: facets merged by part, material and normal.
+
+        Within each (part, material) group, facets are binned by their nearest direction of a
+        Fibonacci sphere of ``k`` directions (the largest ``k`` that keeps the total within
+        ``max_facets``). A merged facet keeps the total area, the area-weighted mean normals and
+        centroid, and 16 of its members' shadow sample points chosen in proportion to area.
+        """
+        if int(max_facets) < 1:
+            raise KnownShapeError(f"max_facets: {max_facets}: expected an integer >= 1")
+        max_facets = int(max_facets)
+        if max_facets >= self.n_facets:
+            return self
+        group = self.part_index.astype(np.int64) * len(self.materials) + self.material_index
+        lo, hi, best = 1, 4 * max_facets + 1, None
+        while lo <= hi:  # bisection on the number of normal bins
+            k = (lo + hi) // 2
+            bins = cKDTree(fibonacci_sphere(k)).query(self.shading_normal_T)[1]
+            labels = np.unique(group * k + bins, return_inverse=True)[1].reshape(-1)
+            if labels.max() + 1 <= max_facets:
+                best, lo = labels, k + 1
+            else:
+                hi = k - 1
+        if best is None:  # fewer facets than (part, material) groups: merge by group only
+            best = np.unique(group, return_inverse=True)[1].reshape(-1)
+        return self._merged(best)
+
+    def _merged(self, labels: np.ndarray) -> KnownShapeModel:
+        n_new = int(labels.max()) + 1
+        A = self.area_m2
+        area = np.bincount(labels, A, n_new)
+
+        def wmean(x):
+            return np.stack([np.bincount(labels, A * x[:, i], n_new) for i in range(3)], 1) / area[:, None]
+
+        def unit(x):
+            return x / np.linalg.norm(x, axis=1, keepdims=True)
+
+        first = np.zeros(n_new, np.int64)
+        first[labels[::-1]] = np.arange(len(labels))[::-1]
+        vis_row = np.full(n_new, -1, np.int32)
+        masks = []
+        if len(self.vis_masks):
+            for c in np.unique(labels[self.vis_row >= 0]):
+                members = np.nonzero(labels == c)[0]
+                # 16 (member, bit) picks stratified in cumulative area: an area-weighted subsample of the points
+                cum = np.cumsum(A[members]) / A[members].sum()
+                u = (np.arange(_SUB_LEVEL_POINTS) + 0.5) / _SUB_LEVEL_POINTS
+                pick = np.minimum(np.searchsorted(cum, u), len(members) - 1)
+                rows = self.vis_row[members[pick]]
+                bits = np.array([self.vis_masks[:, r] >> np.uint16(b) & np.uint16(1) if r >= 0 else np.ones(len(self.directions_T), np.uint16)
+                                 for b, r in enumerate(rows)])
+                masks.append((bits << np.arange(_SUB_LEVEL_POINTS, dtype=np.uint16)[:, None]).sum(axis=0, dtype=np.uint16))
+                vis_row[c] = len(masks) - 1
+        return replace(
+            self, area_m2=area, normal_T=unit(wmean(self.normal_T)), shading_normal_T=unit(wmean(self.shading_normal_T)),
+            centroid_T=wmean(self.centroid_T), material_index=self.material_index[first], part_index=self.part_index[first],
+            vis_row=vis_row, vis_masks=np.ascontiguousarray(np.array(masks, np.uint16).T) if masks else np.zeros((0, 0), np.uint16),
+            directions_T=self.directions_T if masks else np.zeros((0, 3)),
+        )
+
+    # ------------------------------------------------------------ evaluation
+
+    def intensity(self, sun_T, obs_T) -> np.ndarray:
+        """Radiant intensity (W/sr), eq. (1), toward ``obs_T`` under ``irradiance_w_m2`` sunlight from ``sun_T``.
+
+        ``sun_T``, ``obs_T``: (N, 3) unit vectors from the target to the Sun and to the observer in
+        T (as :meth:`lightcurves.render.UnresolvedRenderer.intensity`). Returns (N,).
+        """
+        sun = _directions("sun_T", sun_T)
+        obs = _directions("obs_T", obs_T)
+        if sun.shape != obs.shape:
+            raise KnownShapeError(f"obs_T: shape {obs.shape}: expected the shape of sun_T {sun.shape}")
+        half = sun + obs
+        norm = np.sqrt(np.einsum("ij,ij->i", half, half))[:, None]
+        half = np.divide(half, norm, out=np.zeros_like(half), where=norm > 1e-12)  # opposition-free: s = -o has no half vector
+        s_dot_h = np.einsum("ij,ij->i", sun, half)
+        fresnel = np.stack([S._fresnel_conductor(s_dot_h, mt.eta, mt.k) for mt in self.materials], 1)
+        if self._lookup is not None:
+            ks, ws = self._lookup(sun)
+            ko, wo = self._lookup(obs)
+        else:
+            ks = ko = np.zeros((len(sun), 3), np.int64)
+            ws = wo = np.full((len(sun), 3), 1.0 / 3.0)
+        diffuse_pi, spec, inv_a2, d_norm, g1 = self._tables
+        out = np.empty(len(sun))
+        masks = self.vis_masks if len(self.vis_masks) else np.zeros((1, 1), np.uint16)
+        _intensity_kernel(sun, obs, half, ks, ws, ko, wo, self.area_m2, self.normal_T, self.shading_normal_T, self.material_index,
+                          diffuse_pi, spec, inv_a2, d_norm, g1, np.ascontiguousarray(fresnel), self.vis_row, masks, _POPCOUNT16, out)
+        return out * self.irradiance_w_m2
+
+    def basis(self, sun_T, obs_T) -> np.ndarray:
+        """The brightness as one linear basis column (N, 1), W/sr: ``brightness = basis @ [1]``.
+
+        The contract shared with the convex models (``basis(sun_T, obs_T) -> (N, m)``, brightness
+        ``basis @ w`` with ``w >= 0``): a fitted weight is then the scale of a relative curve.
+        """
+        return self.intensity(sun_T, obs_T)[:, None]

@@ -1,0 +1,406 @@
+"""Pole and period search, then refinement: :func:`invert`.
+
+The model of sample i of curve k is ``F_i = s_k · g_i · (B(ŝ_T, ô_T)_i · w)``: B the shape model's basis
+(``model.basis(sun_T, obs_T)``, (N, m), W/sr), w ≥ 0 its linear parameters, ``g_i = (1 au/d☉)²/ρ²``
+(:func:`lightcurves.render.observed_flux`) and ``s_k`` = 1 for a calibrated curve, a free positive
+scale for a relative one. The body-frame directions follow from the spin state (:mod:`.spin`).
+
+Variable projection (Golub & Pereyra, SIAM J. Numer. Anal. 10, 1973): at each spin state the linear
+parameters are solved in closed form and only the spin state is searched. The product ``s_k·w`` is
+bilinear; writing ``u_k = 1/s_k`` the residual ``g B w − u_k y`` is linear in (w, u), solved by
+non-negative least squares (Lawson & Hanson 1974, scipy ``nnls``); the relative data are then put on
+the model's scale and the solve repeated, after which the exact χ² follows with each ``s_k`` in closed
+form. With no calibrated curve the first relative curve's ``u`` is fixed to 1 (the overall scale is
+the shape's).
+
+1. Screening grid: poles on a Fibonacci lattice of the whole sphere (``pole_step_deg``), sidereal rates
+   on a uniform grid over ``period_range_s`` with step ``Δω = π/(2 T)`` (T the data's time span: the
+   phase drifts by at most a quarter turn across the span between neighbours, i.e. ΔP ≈ P²/(4T)),
+   on at most ``n_grid_samples`` samples per curve, with a coarse convex model (``screen_facets``
+   normals, unconstrained ridge least squares, batched over all poles) whatever the model: a convex
+   model absorbs the rotational phase and the body axis, so the grid has only pole and period.
+2. For a known shape (``basis`` has one column) the phase φ₀ and the body spin axis are found at each
+   candidate on a grid (``n_phases`` phases × ``axes_T``, default the principal axes ±x, ±y, ±z).
+3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
+   reflective) on all data with the full model, in the rotation-vector increment of the pole frame,
+   the rate, and for a known shape the body axis; covariances from the Gauss–Newton Hessian of the
+   profiled residuals; modes merged and weighted in :mod:`.posterior`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import astropy.units as u
+import numpy as np
+from astropy.time import Time
+from scipy.optimize import least_squares, nnls
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
+from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities
+from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
+from lightcurves.render import observed_flux
+
+__all__ = ["invert", "profiled_chi2", "period_grid"]
+
+_PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
+
+
+@dataclass(frozen=True)
+class _Data:
+    """All curves stacked: (N,) arrays and (N, 3) directions; ``curve`` the curve index of each sample."""
+
+    t_s: np.ndarray  #: emission times, s from ``epoch``
+    sun_I: np.ndarray
+    obs_I: np.ndarray
+    y: np.ndarray
+    sigma: np.ndarray
+    g: np.ndarray  #: (1 au/d☉)²/ρ², m⁻²
+    curve: np.ndarray
+    relative: np.ndarray  #: (K,) bool
+    epoch: Time
+
+    def subset(self, idx) -> _Data:
+        return _Data(self.t_s[idx], self.sun_I[idx], self.obs_I[idx], self.y[idx], self.sigma[idx], self.g[idx], self.curve[idx], self.relative, self.epoch)
+
+
+def _stack(curves: Sequence[InversionCurve]) -> _Data:
+    first = min((c.epoch for c in curves), key=lambda e: e.jd)
+    t = np.concatenate([emission_time_s(c, first) for c in curves])
+    mid = 0.5 * (t.min() + t.max())  # the epoch mid-span decorrelates phase and period
+    epoch = first + mid * u.s
+    g = np.concatenate([observed_flux(1.0, c.range_m, c.sun_distance_m) for c in curves])
+    return _Data(t - mid, np.concatenate([c.sun_dir_I for c in curves]), np.concatenate([c.observer_dir_I for c in curves]),
+                 np.concatenate([c.brightness for c in curves]), np.concatenate([c.sigma for c in curves]), g,
+                 np.concatenate([np.full(len(c), k) for k, c in enumerate(curves)]), np.array([not c.calibrated for c in curves]), epoch)
+
+
+def _relative_columns(data: _Data) -> tuple[np.ndarray, np.ndarray, int | None]:
+    """Columns −y/σ (N, K_rel') of the free relative curves, the rhs y/σ (0 on relative rows), and the fixed curve (or None)."""
+    rel_curves = np.flatnonzero(data.relative)
+    fixed = None if (~data.relative).any() else int(rel_curves[0])
+    free = [k for k in rel_curves if k != fixed]
+    ys = data.y / data.sigma
+    cols = np.stack([np.where(data.curve == k, -ys, 0.0) for k in free], axis=1) if free else np.zeros((data.y.size, 0))
+    rhs = np.where(data.relative[data.curve] & (data.curve != fixed), 0.0, ys)
+    return cols, rhs, fixed
+
+
+def _linear_solve(B: np.ndarray, data: _Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear parameters w ≥ 0 (m,), per-curve scales s (K,) and whitened residuals (N,) for the basis B (N, m) (module docstring)."""
+    M = data.g[:, None] * B
+    y, sigma = data.y.copy(), data.sigma.copy()
+    m = B.shape[1]
+    for _ in range(2):  # the second pass runs with the relative data on the model's scale
+        scaled = _Data(data.t_s, data.sun_I, data.obs_I, y, sigma, data.g, data.curve, data.relative, data.epoch)
+        cols, rhs, fixed = _relative_columns(scaled)
+        A = np.hstack([M / sigma[:, None], cols])
+        norm = np.linalg.norm(A, axis=0)
+        norm[norm == 0] = 1.0
+        x, _ = nnls(A / norm, rhs, maxiter=50 * A.shape[1])
+        x /= norm
+        w = x[:m]
+        u = np.ones(data.relative.size)
+        u[[k for k in np.flatnonzero(data.relative) if k != fixed]] = x[m:]
+        if not np.all(u[data.relative] > 0):
+            break
+        y, sigma = y * u[data.curve], sigma * u[data.curve]
+    model = M @ w
+    s = np.ones(data.relative.size)
+    for k in np.flatnonzero(data.relative):  # exact scale of each relative curve, eq. (y − s F)/σ minimised
+        i = data.curve == k
+        den = np.sum((model[i] / data.sigma[i]) ** 2)
+        s[k] = np.sum(data.y[i] * model[i] / data.sigma[i] ** 2) / den if den > 0 else 0.0
+    return w, s, (data.y - s[data.curve] * model) / data.sigma
+
+
+class _Problem:
+    """Whitened, profiled residuals as a function of the nonlinear parameters θ around a reference state.
+
+    θ = (δ₁, δ₂[, δ₃], x_ω[, ε₁, ε₂]): δ the rotation vector (rad) applied to the pole frame C_IP₀ (in its own
+    axes: δ₁, δ₂ tilt the pole, δ₃ turns the phase), ω = ω₀ + x_ω/τ (τ the half span, so x_ω is the phase
+    drift in rad at the span's ends), ε a rotation of the body axis frame about its first two axes.
+    """
+
+    def __init__(self, data: _Data, model, C_IP0: np.ndarray, omega0: float, C_TA0: np.ndarray, fit_phase: bool, fit_axis: bool):
+        self.data, self.model, self.C_IP0, self.omega0, self.C_TA0 = data, model, C_IP0, omega0, C_TA0
+        self.fit_phase, self.fit_axis = fit_phase, fit_axis
+        self.tau = max(np.abs(data.t_s).max(), 1.0)
+        self.n = 3 + fit_phase + 2 * fit_axis
+
+    def unpack(self, theta) -> tuple[np.ndarray, float, np.ndarray]:
+        theta = np.asarray(theta, dtype=float)
+        delta = np.array([theta[0], theta[1], theta[2] if self.fit_phase else 0.0])
+        j = 2 + self.fit_phase
+        omega = self.omega0 + theta[j] / self.tau
+        C_IP = self.C_IP0 @ Rotation.from_rotvec(delta).as_matrix()
+        C_TA = self.C_TA0
+        if self.fit_axis:
+            C_TA = C_TA @ Rotation.from_rotvec([theta[j + 1], theta[j + 2], 0.0]).as_matrix()
+        return C_IP, omega, C_TA
+
+    def solve(self, theta):
+        C_IP, omega, C_TA = self.unpack(theta)
+        phi = omega * self.data.t_s
+        sun_T = unspin(phi, self.data.sun_I @ C_IP) @ C_TA.T
+        obs_T = unspin(phi, self.data.obs_I @ C_IP) @ C_TA.T
+        return _linear_solve(self.model.basis(sun_T, obs_T), self.data)
+
+    def residuals(self, theta) -> np.ndarray:
+        return self.solve(theta)[2]
+
+    def jacobian(self, theta, step: float = 1e-5) -> np.ndarray:
+        """Central differences (N, n) of the profiled residuals (the linear solve re-done at each point)."""
+        theta = np.asarray(theta, dtype=float)
+        cols = []
+        for k in range(self.n):
+            e = np.zeros(self.n)
+            e[k] = step
+            cols.append((self.residuals(theta + e) - self.residuals(theta - e)) / (2 * step))
+        return np.stack(cols, axis=1)
+
+    def state(self, theta) -> SpinState:
+        """The :class:`SpinState` of θ in the conventions of :mod:`.spin` (φ₀ = χ − ψ, see below)."""
+        C_IP, omega, C_TA = self.unpack(theta)
+        pole, axis = C_IP[:, 2], C_TA[:, 2]
+        R = pole_frame(pole).T @ C_IP  # = R_z(χ)
+        Q = axis_frame(axis).T @ C_TA  # = R_z(ψ); C_IT = PF R_z(χ + ωt − ψ) AFᵀ
+        chi, psi = np.arctan2(R[1, 0], R[0, 0]), np.arctan2(Q[1, 0], Q[0, 0])
+        return SpinState(pole, 2 * np.pi / omega, float((chi - psi) % (2 * np.pi)), self.data.epoch, axis)
+
+
+def profiled_chi2(curves: Sequence[InversionCurve], model, state: SpinState) -> tuple[float, np.ndarray, np.ndarray]:
+    """χ² of the curves at a given spin state with the shape's linear parameters and the relative scales solved
+    (the likelihood :func:`invert` maximises), with those parameters: (χ², w (m,), s (K,))."""
+    curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
+    data = _stack(curves)
+    phase = state.phase_rad + state.rate_rad_s * (data.epoch - state.epoch).to_value("s")
+    C_IP0 = pole_frame(state.pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase]).as_matrix()
+    w, s, r = _Problem(data, model, C_IP0, state.rate_rad_s, axis_frame(state.axis_T), False, False).solve(np.zeros(3))
+    return float(r @ r), w, s
+
+
+def period_grid(period_range_s: tuple[float, float], span_s: float, oversampling: float = 1.0) -> np.ndarray:
+    """Sidereal rates (n,) rad/s uniform over ``period_range_s`` with step π/(2·span·oversampling) (module docstring)."""
+    lo, hi = period_range_s
+    w_lo, w_hi = 2 * np.pi / hi, 2 * np.pi / lo
+    step = np.pi / (2 * max(span_s, 1.0) * oversampling)
+    n = int(np.ceil((w_hi - w_lo) / step)) + 1
+    return np.linspace(w_lo, w_hi, n)
+
+
+def _subsample(data: _Data, per_curve: int) -> _Data:
+    idx = []
+    for k in range(data.relative.size):
+        i = np.flatnonzero(data.curve == k)
+        idx.append(i if i.size <= per_curve else i[np.round(np.linspace(0, i.size - 1, per_curve)).astype(int)])
+    return data.subset(np.concatenate(idx))
+
+
+def _batched_nnls(G: np.ndarray, h: np.ndarray, iterations: int) -> np.ndarray:
+    """min ½xᵀGx − hᵀx, x ≥ 0, for a stack of normal equations G (p, q, q), h (p, q), vectorised over p.
+
+    An active-set iteration in the manner of Lawson & Hanson (1974) without their inner feasibility line
+    search: solve on the free set, drop the variables that come out negative, free the bound ones whose
+    gradient points inwards; ``iterations`` rounds, then two sweeps of projected Gauss–Seidel. Not exact on
+    every problem, which is why it only ranks the screening grid (the refinement uses scipy ``nnls``).
+    """
+    q = h.shape[1]
+    eye = np.eye(q, dtype=bool)
+    free = np.ones_like(h, dtype=bool)
+    x = np.zeros_like(h)
+    for _ in range(iterations):
+        mask = free[:, :, None] & free[:, None, :]
+        x_new = np.linalg.solve(np.where(mask, G, eye), np.where(free, h, 0.0)[..., None])[..., 0]
+        x = np.maximum(x_new, 0.0)
+        grad = np.einsum("pij,pj->pi", G, x) - h
+        free = (x_new > 0) | ((x == 0) & (grad < -1e-9 * np.abs(h).max(axis=1, keepdims=True)))
+    for _ in range(2):
+        for j in range(q):
+            x[:, j] = np.maximum(0.0, x[:, j] - (np.einsum("pq,pq->p", G[:, j, :], x) - h[:, j]) / G[:, j, j])
+    return x
+
+
+def _screen(data: _Data, model, poles_I: np.ndarray, omegas: np.ndarray, progress, iterations: int = 8) -> np.ndarray:
+    """Screening χ² (n_pole, n_ω) of the convex ``model`` with non-negative areas and scales (:func:`_batched_nnls`)."""
+    C_IP = pole_frame(poles_I)
+    s_P = np.einsum("ni,pij->pnj", data.sun_I, C_IP)
+    o_P = np.einsum("ni,pij->pnj", data.obs_I, C_IP)
+    # relative curves put on the calibrated curves' median model scale (or 1) so their weights are right
+    y, sigma = data.y.copy(), data.sigma.copy()
+    cal = ~data.relative[data.curve]
+    ref = np.median(data.y[cal] / data.g[cal]) if cal.any() else 1.0
+    for k in np.flatnonzero(data.relative):
+        i = data.curve == k
+        f = ref * np.median(data.g[i]) / np.median(y[i])
+        y[i], sigma[i] = y[i] * f, sigma[i] * f
+    cols, rhs, _ = _relative_columns(_Data(data.t_s, data.sun_I, data.obs_I, y, sigma, data.g, data.curve, data.relative, data.epoch))
+    n_p, n_s = poles_I.shape[0], data.t_s.size
+    out = np.empty((n_p, omegas.size))
+    for j, omega in enumerate(omegas):
+        phi = omega * data.t_s
+        B = model.basis(unspin(phi, s_P).reshape(-1, 3), unspin(phi, o_P).reshape(-1, 3)).reshape(n_p, n_s, -1)
+        A = np.concatenate([B * (data.g / sigma)[None, :, None], np.broadcast_to(cols, (n_p,) + cols.shape)], axis=2)
+        At = A.transpose(0, 2, 1)
+        G = np.matmul(At, A)
+        d = np.sqrt(np.einsum("pii->pi", G))  # Jacobi scaling: unit diagonal for the coordinate descent
+        d[d == 0] = 1.0
+        Gs = G / (d[:, :, None] * d[:, None, :]) + 1e-9 * np.eye(G.shape[1])  # unlit facets: zero columns, kept at 0
+        Gs[np.einsum("pii->pi", G) == 0] = np.eye(G.shape[1])[None].repeat(n_p, 0)[np.einsum("pii->pi", G) == 0]
+        x = _batched_nnls(Gs, np.matmul(At, rhs) / d, iterations) / d
+        out[:, j] = np.sum((np.matmul(A, x[..., None])[..., 0] - rhs) ** 2, axis=1)
+        if progress is not None:
+            progress(j + 1, omegas.size)
+    return out
+
+
+def _local_minima(poles_I: np.ndarray, values: np.ndarray, k: int = 7) -> np.ndarray:
+    """Indices of poles whose value is ≤ that of their k − 1 nearest neighbours, by increasing value."""
+    _, nb = cKDTree(poles_I).query(poles_I, k=k)
+    is_min = np.all(values[:, None] <= values[nb], axis=1)
+    idx = np.flatnonzero(is_min)
+    return idx[np.argsort(values[idx])]
+
+
+def _period_minima(row: np.ndarray, n: int) -> np.ndarray:
+    """Up to ``n`` indices of local minima of a χ²(ω) row, best first."""
+    left = np.r_[np.inf, row[:-1]]
+    right = np.r_[row[1:], np.inf]
+    idx = np.flatnonzero((row <= left) & (row <= right))
+    return idx[np.argsort(row[idx])][:n]
+
+
+def _phase_axis_starts(data: _Data, model, pole_I, omega: float, axes_T, n_phases: int, n_keep: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Best ``n_keep`` (C_IP₀, C_TA₀) over a grid of phases × body axes for a known shape at a fixed pole and rate."""
+    PF = pole_frame(pole_I)
+    trials = []
+    for axis in axes_T:
+        C_TA = axis_frame(axis)
+        for phase in np.arange(n_phases) * 2 * np.pi / n_phases:
+            C_IP = PF @ Rotation.from_rotvec([0.0, 0.0, phase]).as_matrix()
+            chi2 = float(np.sum(_Problem(data, model, C_IP, omega, C_TA, True, True).residuals(np.zeros(6)) ** 2))
+            trials.append((chi2, C_IP, C_TA))
+    trials.sort(key=lambda t: t[0])
+    return [(c, a) for _, c, a in trials[:n_keep]]
+
+
+def _refine(problem: _Problem) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
+    """Least-squares refinement, then re-centred at the optimum: (problem at θ = 0, J, χ², w, s)."""
+    fit = least_squares(problem.residuals, np.zeros(problem.n), method="trf", x_scale=1.0, diff_step=1e-6, max_nfev=60 * problem.n)
+    C_IP, omega, C_TA = problem.unpack(fit.x)
+    centred = _Problem(problem.data, problem.model, C_IP, omega, C_TA, problem.fit_phase, problem.fit_axis)
+    w, s, r = centred.solve(np.zeros(centred.n))
+    return centred, centred.jacobian(np.zeros(centred.n)), float(r @ r), w, s
+
+
+def _pole_period_map(problem: _Problem, cov_theta: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Covariance (3, 3) of (t₁, t₂, P) and the σ of φ₀ and of the axis from that of θ at θ = 0 (see :class:`_Problem`)."""
+    state = problem.state(np.zeros(problem.n))
+    R = pole_frame(state.pole_I).T @ problem.C_IP0  # R_z(χ): the pole frame of the refinement vs the conventional one
+    G = np.zeros((3, problem.n))
+    # a rotation δ of the frame moves the pole by δ × p = δ₂ e₁' − δ₁ e₂' (primed: refinement frame)
+    G[:2, :2] = R[:2, :2] @ np.array([[0.0, 1.0], [-1.0, 0.0]])
+    j = 2 + problem.fit_phase
+    omega = 2 * np.pi / state.period_s
+    G[2, j] = -2 * np.pi / omega**2 / problem.tau
+    cov = G @ cov_theta @ G.T
+    phase_sigma = float(np.sqrt(cov_theta[2, 2])) if problem.fit_phase else float("nan")
+    axis_sigma = float(np.degrees(np.sqrt(np.linalg.eigvalsh(cov_theta[j + 1:, j + 1:])[-1]))) if problem.fit_axis else float("nan")
+    return cov, phase_sigma, axis_sigma
+
+
+def _validate(curves, period_range_s) -> tuple[float, float]:
+    if isinstance(curves, InversionCurve):
+        curves = [curves]
+    if len(curves) == 0 or not all(isinstance(c, InversionCurve) for c in curves):
+        raise ValueError(f"curves: {type(curves).__name__}: expected a non-empty sequence of InversionCurve")
+    try:
+        lo, hi = (float(v) for v in period_range_s)
+    except (TypeError, ValueError):
+        raise ValueError(f"period_range_s: {period_range_s!r}: expected (min, max) sidereal periods in s") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+        raise ValueError(f"period_range_s: {period_range_s!r}: expected 0 < min < max, in s")
+    return lo, hi
+
+
+def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float, float], *, rng: np.random.Generator | None = None,
+           progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 1.0,
+           n_grid_samples: int = 200, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 2,
+           axes_T=None, n_phases: int = 24) -> InversionResult:
+    """Spin state(s) of one object from its light curves: all modes the data cannot tell apart (module docstring).
+
+    Parameters
+    ----------
+    curves : the light curves (relative and calibrated may mix), each with its geometry.
+    model : shape model with ``basis(sun_T, obs_T) -> (N, m)`` (W/sr): a :class:`ConvexModel` (unknown
+        shape, body z the spin axis, phase absorbed) or a known shape (m = 1: phase and axis fitted).
+    period_range_s : (min, max) sidereal period searched, s.
+    rng : if given, turns the pole lattice by a random rotation (so repeated studies do not share grid points).
+    progress : called as ``progress(n_done, n_total)`` during the grid and the refinements.
+    pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule.
+    n_grid_samples : samples per curve used by the grid; screen_facets : normals of the screening model.
+    n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each.
+    axes_T : (n, 3) candidate body spin axes for a known shape (default the principal axes ±x, ±y, ±z).
+    n_phases : phases tried per axis for a known shape.
+    """
+    lo, hi = _validate(curves, period_range_s)
+    curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
+    if not (np.isfinite(pole_step_deg) and 0.5 <= pole_step_deg <= 45):
+        raise ValueError(f"pole_step_deg: {pole_step_deg!r}: expected a spacing in [0.5, 45] deg")
+    data = _stack(curves)
+    m = np.asarray(model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))).shape[1]
+    known = m == 1
+    poles = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2)))
+    if rng is not None:
+        poles = poles @ Rotation.random(random_state=rng).as_matrix().T
+    omegas = period_grid((lo, hi), np.ptp(data.t_s), period_oversampling)
+    screen_model = model.with_facets(screen_facets) if isinstance(model, ConvexModel) else ConvexModel(screen_facets)
+    n_total = omegas.size + n_candidates * n_periods_per_pole
+    grid = _subsample(data, n_grid_samples)
+    chi2_grid = _screen(grid, screen_model, poles, omegas, None if progress is None else (lambda j, n: progress(j, n_total)))
+    best_w = np.argmin(chi2_grid, axis=1)
+    chi2_map = chi2_grid[np.arange(poles.shape[0]), best_w]
+
+    axes = _PRINCIPAL_AXES if axes_T is None else np.asarray(axes_T, dtype=float)
+    fits = []
+    done = omegas.size
+    for ip in _local_minima(poles, chi2_map)[:n_candidates]:
+        for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
+            if known:
+                starts = _phase_axis_starts(grid, model, poles[ip], omegas[iw], axes, n_phases, 2)
+            else:
+                starts = [(pole_frame(poles[ip]), np.eye(3))]
+            for C_IP0, C_TA0 in starts:
+                fits.append(_refine(_Problem(data, model, C_IP0, omegas[iw], C_TA0, known, known)))
+            done += 1
+            if progress is not None:
+                progress(done, n_total)
+    return _posterior(fits, data, model, poles, chi2_map, 2 * np.pi / omegas[best_w])
+
+
+def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> InversionResult:
+    """Covariances, distinct modes and their probabilities from the refined fits (:mod:`.posterior`)."""
+    chi2 = np.array([f[2] for f in fits])
+    best = int(np.argmin(chi2))
+    n_linear = int(np.count_nonzero(fits[best][3])) + int(data.relative.sum()) - int((~data.relative).sum() == 0)
+    dof = max(data.y.size - n_linear - fits[best][0].n, 1)
+    scale = max(1.0, chi2[best] / dof)
+    states, covs, logdets, extras = [], [], [], []
+    for problem, J, _, _, _ in fits:
+        H = J.T @ J
+        cov_theta = scale * np.linalg.pinv(H)
+        ev = np.linalg.eigvalsh(cov_theta)
+        logdets.append(float(np.sum(np.log(np.clip(ev, 1e-300, None)))))
+        cov, phase_sigma, axis_sigma = _pole_period_map(problem, cov_theta)
+        states.append(problem.state(np.zeros(problem.n)))
+        covs.append(cov)
+        extras.append((phase_sigma, axis_sigma))
+    keep = distinct_modes([s.pole_I for s in states], [s.period_s for s in states], chi2, covs)
+    prob = laplace_probabilities(chi2[keep], np.array(logdets)[keep], scale)
+    sols = [SpinSolution(states[i], covs[i], extras[i][0], extras[i][1], float(chi2[i]), float(p), fits[i][3], fits[i][4]) for i, p in zip(keep, prob)]
+    sols.sort(key=lambda s: -s.probability)
+    return InversionResult(tuple(sols), int(dof), float(scale), model, data.epoch, poles, chi2_map, period_map_s)
