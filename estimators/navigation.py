@@ -66,6 +66,9 @@ class NavigationRun:
     reacquisitions: tuple[tuple[float, str], ...] = ()  #: ``(t, source)`` of each re-acquisition
     #: ``(t, nodes, usable)`` of each re-linearisation about the full-information fit (:mod:`estimators.batch`)
     relinearizations: tuple[tuple[float, int, bool], ...] = ()
+    #: times (s since ``t[0]``) of the re-linearisations whose fit passed only with the spin prior's rate made flat:
+    #: the prior contradicts the measurements (:func:`estimators.batch.posterior`, ``suspect``)
+    prior_contradicted: tuple[float, ...] = ()
 
 
 def run_navigation(
@@ -124,7 +127,7 @@ def run_navigation(
     reacq = Reacquisition(reacquire_window) if reacquire_window is not None else None
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
-    relin = _Relinearization(model, servicer, tau, tuning, filt, consider) if tuning.relinearize_s > 0 else None
+    relin = _Relinearization(model, servicer, tau, tuning, filt, consider, spin_prior=prior is not None) if tuning.relinearize_s > 0 else None
     for k in range(1, n):
         if tuning.settling_s > 0:  # the tuning's settling and release phases (estimators.tuning)
             _set_phase(filt, tuning, tau, t[k - 1] - t[0], consider, relin, model, servicer[k - 1])
@@ -156,6 +159,7 @@ def run_navigation(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
         relinearizations=tuple(relin.events) if relin is not None else (),
+        prior_contradicted=tuple(relin.prior_contradicted) if relin is not None else (),
     )
 
 
@@ -169,9 +173,12 @@ class _Relinearization:
     filter's estimate run back to ``t[0]``, each later one from the latest
     fit that passed. A fit that fails its tests (:attr:`estimators.batch.BatchPosterior.usable`)
     leaves the filter as it is, and puts it back into its settling phase until one passes.
+    With a spin prior (``spin_prior``) the rate is ``suspect`` to the fit: a fit that
+    fails is redone with the prior's rate made flat, and if that one passes, the
+    filter is reset to it and the time is noted in ``prior_contradicted``.
     """
 
-    def __init__(self, model, servicer, tau: float, tuning: Tuning, filt, consider):
+    def __init__(self, model, servicer, tau: float, tuning: Tuning, filt, consider, *, spin_prior: bool = False):
         self.model, self.servicer, self.tau, self.consider = model, servicer, tau, consider
         #: the inertia ratios' error indices for the fit's quadrature; none when they are considered (held)
         self.k_states = None if np.isin(np.arange(N_ERROR)[DK], consider).any() else np.arange(N_ERROR)[DK]
@@ -184,6 +191,8 @@ class _Relinearization:
         #: considers until the next fit (its posterior along them is not Gaussian: the fit, not the filter, learns them)
         self.weak_directions = np.zeros((0, N_ERROR))
         self.events: list[tuple[float, int, bool]] = []
+        self.suspect = np.arange(N_ERROR)[DW_ST_T] if spin_prior else ()
+        self.prior_contradicted: list[float] = []
 
     def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
         """Record step ``k``'s accepted measurements; fit and reset the filter when a re-linearisation is due."""
@@ -196,7 +205,7 @@ class _Relinearization:
         start = self.x0_fit if self.x0_fit is not None else self.model.rewind(filt.x, self.servicer[1 : k + 1], self.tau)
         try:
             post = posterior(self.model, self.servicer, self.history, self.x0_prior, self.P0, k, self.tau, x0_start=start,
-                             consider=self.consider, k_states=self.k_states)
+                             consider=self.consider, k_states=self.k_states, suspect=self.suspect)
         except BatchFitError:
             self.events.append((float(t_s), 0, False))
             self.trusted = False
@@ -206,6 +215,8 @@ class _Relinearization:
         self.weak_directions = np.zeros((0, N_ERROR)) if post.weak_directions is None else post.weak_directions
         if post.usable:
             filt.reset(post.x, post.P, f"re-linearisation at t={t_s}")
+            if len(self.suspect) and np.isin(self.suspect, post.prior_flattened).all():
+                self.prior_contradicted.append(float(t_s))
             self.x0_fit = post.x0
 
 

@@ -39,13 +39,14 @@ from pathlib import Path
 import astropy.units as u
 import numpy as np
 from astropy.io.ascii import convert_numpy
-from astropy.table import Table
+from astropy.table import MaskedColumn, Table
 from astropy.time import Time
 from astropy.timeseries import TimeSeries
 
 from lightcurves.samples import BadSeries, check_samples
 
-__all__ = ["LightCurve", "DuplicateTimesWarning", "to_timeseries", "from_table", "read_lightcurve", "read_csv", "merge_duplicate_times"]
+__all__ = ["LightCurve", "DuplicateTimesWarning", "to_timeseries", "from_table", "read_lightcurve", "read_csv", "merge_duplicate_times",
+           "read_table", "ambiguous_time_unit", "AmbiguousTimeUnit", "ReaderOptionError", "TIME_FORMATS", "TIME_SCALES", "COLUMN_ROLES"]
 
 
 @dataclass(frozen=True)
@@ -245,21 +246,119 @@ def merge_duplicate_times(t, mag, mag_err=None):
     return keys, m, (None if mag_err is None else e), int(t.size - keys.size)
 
 
-def _first_bad_time(cells: list[str], time_format: str | None) -> str:
+#: Formats of a numeric time column: ``"seconds"`` and ``"ms"`` (seconds or milliseconds since any origin: only differences
+#: are used) and the numeric formats of astropy ``Time`` (days for ``mjd``/``jd``, seconds since 1970 for ``unix``, ...).
+NUMERIC_TIME_FORMATS = ("seconds", "ms", "mjd", "jd", "unix", "unix_tai", "gps", "cxcsec", "decimalyear", "jyear", "byear")
+#: Formats of a text time column (astropy ``Time`` string formats): ``isot`` 2024-03-21T20:00:00.5, ``iso`` with a space,
+#: ``fits``, ``yday`` 2024:081:20:00:00.5.
+TEXT_TIME_FORMATS = ("isot", "iso", "fits", "yday")
+TIME_FORMATS = NUMERIC_TIME_FORMATS + TEXT_TIME_FORMATS
+#: Time scales a file's times may be in (converted to UTC on reading); ``ut1`` is left out (it needs IERS tables from the network).
+TIME_SCALES = ("utc", "tai", "tt", "tdb", "tcg", "tcb")
+#: What ``columns=`` may name: the file's column holding each quantity.
+COLUMN_ROLES = ("time", "mag", "mag_err", "flux", "flux_err")
+#: Suffixes of the tables read with astropy ``Table.read``, and their format.
+TABLE_FORMATS = {".fits": "fits", ".fit": "fits", ".fts": "fits", ".vot": "votable", ".votable": "votable", ".xml": "votable"}
+#: Where relative times are put on an absolute axis (only differences matter to the spectra and the prior).
+_RELATIVE_EPOCH = "2000-01-01T12:00:00"
+#: Seconds per unit of the relative formats.
+_RELATIVE_UNITS_S = {"seconds": 1.0, "ms": 1e-3}
+_UNITS = {"mjd": "days (MJD)", "jd": "days (JD)", "unix": "seconds since 1970 (Unix)", "unix_tai": "TAI seconds since 1970",
+          "gps": "seconds since 1980-01-06 (GPS)", "cxcsec": "seconds since 1998 (Chandra)", "decimalyear": "years", "jyear": "Julian years",
+          "byear": "Besselian years"}
+
+
+class ReaderOptionError(ValueError):
+    """A reader's option (``time_format``, ``time_scale``, ``columns``) is not one it knows."""
+
+
+class AmbiguousTimeUnit(BadSeries):
+    """A numeric time column whose values or spacing make its unit ambiguous, read without a ``time_format``."""
+
+
+def ambiguous_time_unit(values) -> str | None:
+    """What a numeric time column looks like if seconds are not its obvious unit; ``None`` if it reads plainly as seconds.
+
+    Read as seconds, a column in days or milliseconds gives a spin rate wrong by
+    86400× or 1000×, with full confidence. So without a stated format a column
+    is refused when (``dt``: the median spacing of consecutive distinct values):
+
+    1. any value exceeds 1e10 in magnitude (317 years of seconds: milliseconds or
+       nanoseconds since 1970, or some other unit);
+    2. every value lies within [2.2e6, 2.6e6]: Julian Dates (years 1311–2406);
+    3. every value lies within [3e4, 1e5] and ``dt < 1``: Modified Julian Dates
+       (years 1941–2132) with sub-day spacing, or seconds from an origin 8–28 h
+       back with sub-second spacing — it cannot tell which;
+    4. every value lies within [3e8, 4.2e9]: Unix seconds (years 1979–2103) or
+       another epoch's seconds; the rate would come out right, but the epoch is a guess;
+    5. ``dt >= 100``: a tumbling object's light curve is sampled every 0.01–30 s,
+       so a spacing of 100 or more looks like milliseconds (1e3× a second).
+
+    ``values``: (N,) finite floats. Returns e.g. ``"looks like MJD (days)"``.
+    """
+    v = np.asarray(values, dtype=float)
+    steps = np.diff(np.unique(v))
+    dt = float(np.median(steps)) if steps.size else 0.0
+    lo, hi = float(v.min()), float(v.max())
+    if max(abs(lo), abs(hi)) > 1e10:
+        return f"reaches {max(abs(lo), abs(hi)):.6g}: looks like milliseconds since 1970 or another unit than seconds"
+    if 2.2e6 <= lo and hi <= 2.6e6:
+        return f"holds {lo:.10g} to {hi:.10g}: looks like JD (days)"
+    if 3e4 <= lo and hi <= 1e5 and dt < 1.0:
+        return f"holds {lo:.10g} to {hi:.10g} spaced {dt:.3g}: looks like MJD (days)"
+    if 3e8 <= lo and hi <= 4.2e9:
+        return f"holds {lo:.10g} to {hi:.10g}: looks like Unix time (seconds since 1970) or another epoch"
+    if dt >= 100.0:
+        return f"is spaced {dt:.6g} (median): looks like milliseconds"
+    return None
+
+
+def _reader_options(time_format, time_scale, columns) -> dict[str, str]:
+    """Check ``time_format``/``time_scale``; ``columns`` (role -> the file's column name) completed with the default names."""
+    if time_format is not None and time_format not in TIME_FORMATS:
+        raise ReaderOptionError(f"time_format: {time_format!r}: expected one of {', '.join(TIME_FORMATS)}")
+    if time_scale not in TIME_SCALES:
+        raise ReaderOptionError(f"time_scale: {time_scale!r}: expected one of {', '.join(TIME_SCALES)}")
+    columns = dict(columns or {})
+    bad = [k for k, name in columns.items() if k not in COLUMN_ROLES or not isinstance(name, str) or not name.strip()]
+    if bad:
+        raise ReaderOptionError(f"columns: {columns!r}: expected a mapping of {', '.join(COLUMN_ROLES)} to column names")
+    if "mag" in columns and "flux" in columns:
+        raise ReaderOptionError(f"columns: {columns!r}: expected one of mag= or flux=, not both")
+    return {role: columns.get(role, role).strip().lower() for role in COLUMN_ROLES} | {"_named": ",".join(sorted(columns))}
+
+
+def _photometry_roles(table: Table, names: dict, where: str) -> tuple[str, str]:
+    """``("mag", "mag_err")`` or ``("flux", "flux_err")``: which brightness the table gives (the mapped one, else mag, else flux)."""
+    named = names["_named"].split(",")
+    use_flux = "flux" in named or ("mag" not in named and names["mag"] not in table.colnames and names["flux"] in table.colnames)
+    value, error = ("flux", "flux_err") if use_flux else ("mag", "mag_err")
+    needed = [names["time"], names[value]] + ([names[error]] if error in named else [])
+    missing = [c for c in needed if c not in table.colnames]
+    if missing:
+        hint = "" if "time" in named else "; or name yours, e.g. --columns time=mjd,mag=magnitude,mag_err=err (columns=)"
+        raise BadSeries(f"{where}: the table must contain {', '.join(repr(c) for c in missing)} (it has {table.colnames}); "
+                        f"expected columns 'time' and 'mag' (optionally 'mag_err'), or 'flux' (optionally 'flux_err'){hint}")
+    return value, error
+
+
+def _first_bad_time(cells: list[str], time_format: str | None, time_scale: str) -> str:
     """Which cell of a time column failed to parse (for the message), e.g. ``row 3 holds 'nan'``."""
     for i, c in enumerate(cells):
         try:
-            if _DECIMAL.match(c):
-                Time(float(c), format=time_format or "unix", scale="utc")
+            if time_format in TEXT_TIME_FORMATS or (time_format is None and not _DECIMAL.match(c)):
+                Time(c, format=time_format or "isot", scale=time_scale)
+            elif time_format is not None and time_format not in _RELATIVE_UNITS_S:
+                Time(float(c), format=time_format, scale=time_scale)
             else:
-                Time(c, format="isot", scale="utc")
+                float(c)
         except (ValueError, TypeError):
             return f"row {i + 1} holds {c[:40]!r}"
     return "mixes ISO 8601 text and numbers"
 
 
 def _csv_table(path: Path) -> Table:
-    """The CSV's cells as text, columns named in lower case: checked for NUL bytes, UTF-8, one header with 'time' and 'mag', rows."""
+    """The CSV's cells as text, columns named in lower case: checked for NUL bytes, UTF-8, one header, rows."""
     data = path.read_bytes()
     nul = data.find(b"\x00")
     if nul >= 0:
@@ -277,80 +376,190 @@ def _csv_table(path: Path) -> Table:
     if len(set(cols)) != len(cols):
         raise BadSeries(f"{path.name}: CSV header repeats a column ({cols}); expected 'time,mag[,mag_err]' once each")
     table.rename_columns(table.colnames, cols)
-    if "time" not in cols or "mag" not in cols:
-        raise BadSeries(f"{path.name}: CSV header must contain 'time' and 'mag' (optionally 'mag_err'), got {cols}")
-    if len(table) == 0:
-        raise BadSeries(f"{path.name}: CSV has a header but no rows; expected one row per sample")
     return table
 
 
-def _csv_times(raw, where: str, time_format: str | None, meta: dict) -> Time:
-    """The CSV's time column as UTC times: ISO 8601 text, or numbers in ``time_format`` (``None``: relative seconds, noted in ``meta``)."""
-    if np.ma.getmaskarray(raw).any():
-        raise BadSeries(f"{where}: column 'time' row {int(np.flatnonzero(np.ma.getmaskarray(raw))[0]) + 1} is empty; expected a time in every row")
+def _text_table(table: Table, where: str) -> tuple[Table, set[str]]:
+    """A FITS/VOTable table as the CSV reader sees one: every 1-D column as text cells (masks kept), names in lower case.
+
+    Numbers become their shortest round-trip text (``str`` of a float64 reads
+    back to the same float), so a table's values reach the checks of the CSV
+    cells unchanged; an astropy ``Time`` column becomes ISO 8601 UTC text with
+    ns digits. Returns the table and the names of the ``Time`` columns.
+    """
+    cols = [c.strip().lower() for c in table.colnames]
+    if len(set(cols)) != len(cols):
+        raise BadSeries(f"{where}: the table repeats a column ({cols}); expected each name once")
+    out, times = Table(), set()
+    for name, col in zip(cols, table.columns.values()):
+        if isinstance(col, Time):
+            cells = [str(c) for c in Time(col, precision=9).utc.isot]
+            times.add(name)
+        elif getattr(col, "ndim", 1) == 1:
+            cells = [c.decode("utf-8", "replace") if isinstance(c, bytes) else str(c) for c in np.asarray(col).tolist()]
+        else:
+            continue  # a vector per row is no light-curve column
+        out[name] = MaskedColumn(cells, mask=np.ma.getmaskarray(col), dtype=str) if len(cells) else MaskedColumn(np.zeros(0, dtype=str))
+    return out, times
+
+
+def _relative_times(values: np.ndarray, meta: dict, unit: str, how: str) -> Time:
+    """Times ``values`` in ``unit`` (``seconds``/``ms``) since an unknown origin, put on an arbitrary UTC epoch."""
+    meta["time_origin"] = "relative seconds (no absolute epoch in the file)"
+    meta["time_input"] = f"{unit} since an arbitrary origin ({how})"
+    return Time(_RELATIVE_EPOCH, scale="utc") + values * _RELATIVE_UNITS_S[unit] * u.s
+
+
+def _csv_times(raw, where: str, time_format: str | None, meta: dict, *, time_scale: str = "utc", name: str = "time") -> Time:
+    """The time column (text cells) as UTC times; what was assumed is written to ``meta["time_input"]``.
+
+    Text cells are read in ``time_format`` (default ``isot``, ISO 8601); numbers in
+    ``time_format`` (:data:`NUMERIC_TIME_FORMATS`), or, without one, as seconds
+    since an arbitrary origin unless :func:`ambiguous_time_unit` finds them ambiguous
+    (:class:`AmbiguousTimeUnit`). ``time_scale``: the scale the file's times are in.
+    """
+    mask = np.ma.getmaskarray(raw)
+    if mask.any():
+        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a time in every row")
     cells = [str(c).strip() for c in np.asarray(raw)]
+    numeric = all(_DECIMAL.match(c) for c in cells)
     try:
-        if not all(_DECIMAL.match(c) for c in cells):
-            return Time(cells, format="isot", scale="utc")
-        values = _numbers("time", raw, where)
-        if time_format is not None:
-            return Time(values, format=time_format, scale="utc")
-        if np.abs(values).max() > 1e10:
-            raise BadSeries(f"{where}: column 'time' reaches {np.abs(values).max():g} s; expected relative seconds within 1e10")
-        meta["time_origin"] = "relative seconds (no absolute epoch in the CSV)"
-        return Time("2000-01-01T12:00:00", scale="utc") + values * u.s
+        if time_format in TEXT_TIME_FORMATS or (time_format is None and not numeric):
+            fmt = time_format or "isot"
+            meta["time_input"] = f"column '{name}': {fmt} text, scale {time_scale}"
+            return Time(cells, format=fmt, scale=time_scale).utc
+        values = _numbers(name, raw, where)
+        if time_format is None:
+            looks = ambiguous_time_unit(values)
+            if looks is not None:
+                raise AmbiguousTimeUnit(f"{where}: column '{name}' {looks}; expected its unit named with --time-format (time_format=): "
+                                        f"seconds, mjd, jd, unix, ...")
+            return _relative_times(values, meta, "seconds", "assumed: no time format given")
+        if time_format in _RELATIVE_UNITS_S:
+            return _relative_times(values, meta, time_format, f"time format {time_format!r}")
+        meta["time_input"] = f"column '{name}': {time_format}, {_UNITS[time_format]}, scale {time_scale}"
+        return Time(values, format=time_format, scale=time_scale).utc
     except (ValueError, TypeError) as e:
         if isinstance(e, BadSeries):
             raise
-        raise BadSeries(f"{where}: column 'time' {_first_bad_time(cells, time_format)}; expected ISO 8601 UTC like "
+        raise BadSeries(f"{where}: column '{name}' {_first_bad_time(cells, time_format, time_scale)}; expected ISO 8601 like "
                         f"2024-03-21T20:00:00.5 or decimal {time_format or 'seconds'} in every row") from None
 
 
-def read_csv(path, time_format: str | None = None) -> LightCurve:
-    """An observer's CSV with a header ``time, mag[, mag_err]``.
+def _magnitudes(table: Table, names: dict, where: str, value: str, error: str, meta: dict) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(mag, mag_err)`` from the table's magnitudes, or from its fluxes as instrumental magnitudes ``−2.5 log10 F``.
 
-    ``time`` is ISO 8601 UTC text, or numbers: seconds from the first sample
-    (``time_format=None``) or ``"mjd"``, ``"jd"``, ``"unix"``. Every cell must
-    be given (an empty cell is an error, not 0) and be a plain decimal number
-    (no ``0x10``, ``nan``, ``inf``). Rows at the same time are merged by
-    :func:`merge_duplicate_times` with one :class:`DuplicateTimesWarning`.
+    A flux ``F`` of any unit gives ``m = −2.5 log10 F`` (the zero point is
+    unknown and irrelevant to a period) and ``σ_m = (2.5 / ln 10) σ_F / F``
+    (first order). A flux ``F ≤ 0`` has no magnitude: refused, naming the row.
     """
-    path = Path(path)
-    table = _csv_table(path)
-    mag = _numbers("mag", table["mag"], path.name)
-    mag_err = _numbers("mag_err", table["mag_err"], path.name) if "mag_err" in table.colnames else None
+    y = _numbers(names[value], table[names[value]], where)
+    dy = _numbers(names[error], table[names[error]], where) if names[error] in table.colnames else None
+    if value == "mag":
+        return y, dy
+    if np.any(y <= 0):
+        k = int(np.flatnonzero(y <= 0)[0])
+        raise BadSeries(f"{where}: column '{names['flux']}' row {k + 1} holds {y[k]:g}; expected a flux > 0 (a magnitude is −2.5 log10 of it)")
+    meta["mag_from_flux"] = f"instrumental magnitudes -2.5 log10({names['flux']}) (zero point unknown)"
+    return -2.5 * np.log10(y), None if dy is None else (2.5 / np.log(10.0)) * dy / y
+
+
+def _lightcurve_from_cells(table: Table, where: str, time_format, time_scale: str, columns, time_columns=frozenset()) -> LightCurve:
+    """The light curve of a table of text cells (:func:`_csv_table`, :func:`_text_table`): checked, converted, duplicates merged."""
+    names = _reader_options(time_format, time_scale, columns)
+    if len(table) == 0:
+        raise BadSeries(f"{where}: the table has a header but no rows; expected one row per sample")
+    value, error = _photometry_roles(table, names, where)
+    if names["time"] in time_columns:  # already absolute times (ISO text in UTC): a format would contradict them
+        if time_format is not None:
+            raise ReaderOptionError(f"time_format: {time_format!r}: expected none, column '{names['time']}' of {where} is a time column already")
+        time_format, time_scale = "isot", "utc"
     meta = dict(table.meta)
-    time = _csv_times(table["time"], path.name, time_format, meta)
+    mag, mag_err = _magnitudes(table, names, where, value, error, meta)
+    time = _csv_times(table[names["time"]], where, time_format, meta, time_scale=time_scale, name=names["time"])
     t_s = (time - time[0]).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
         k = int(np.flatnonzero(np.diff(t_s) < 0)[0])
-        raise BadSeries(f"{path.name}: time is not increasing (row {k + 2} comes before row {k + 1}); expected rows in time order")
+        raise BadSeries(f"{where}: time is not increasing (row {k + 2} comes before row {k + 1}); expected rows in time order")
     _, mag, mag_err, n_merged = merge_duplicate_times(t_s, mag, mag_err)
     if n_merged:
-        keep = np.concatenate([[True], np.diff(t_s) > 0])
-        time = time[keep]
+        time = time[np.concatenate([[True], np.diff(t_s) > 0])]
         weighting = "inverse-variance weights 1/mag_err^2" if mag_err is not None and np.all(np.isfinite(mag_err)) else "equal weights (no mag_err)"
-        warnings.warn(f"{path.name}: {n_merged} row(s) share a time with another row; merged each group into one sample, "
-                      f"the weighted mean in magnitudes ({weighting})", DuplicateTimesWarning, stacklevel=2)
+        warnings.warn(f"{where}: {n_merged} row(s) share a time with another row; merged each group into one sample, "
+                      f"the weighted mean in magnitudes ({weighting})", DuplicateTimesWarning, stacklevel=3)
     out = Table({"time": time, "mag": mag}, meta=meta)
     if mag_err is not None:
         out["mag_err"] = mag_err
-    out.meta["source"] = str(path.name)
+    out.meta["source"] = where
     return from_table(out)
 
 
-def read_lightcurve(path) -> LightCurve:
-    """Read an ECSV light curve (as written from :func:`to_timeseries`) or an observer's CSV."""
+def read_csv(path, time_format: str | None = None, *, time_scale: str = "utc", columns: dict[str, str] | None = None) -> LightCurve:
+    """An observer's CSV with a header ``time, mag[, mag_err]`` (or ``flux[, flux_err]``, or the names ``columns`` maps).
+
+    ``time`` is text in a :data:`TEXT_TIME_FORMATS` format (default ISO 8601
+    ``isot``), or numbers in ``time_format`` (:data:`NUMERIC_TIME_FORMATS`:
+    ``"seconds"`` or ``"ms"`` since any origin, ``"mjd"``/``"jd"`` days, ``"unix"`` seconds
+    since 1970, ...), in ``time_scale`` (:data:`TIME_SCALES`, converted to UTC).
+    Numbers without a ``time_format`` are seconds since an arbitrary origin
+    unless :func:`ambiguous_time_unit` says their values or spacing look like
+    another unit (MJD, JD, Unix time, milliseconds): then :class:`AmbiguousTimeUnit`.
+    ``columns``: ``{"time": "mjd", "mag": "magnitude", "mag_err": "err"}``, names
+    case-insensitive; a ``flux`` column (any unit, > 0) becomes instrumental
+    magnitudes ``−2.5 log10 flux``. Every cell must be given (an empty cell is an
+    error, not 0) and be a plain decimal number (no ``0x10``, ``nan``, ``inf``).
+    Rows at the same time are merged by :func:`merge_duplicate_times` with one
+    :class:`DuplicateTimesWarning`. ``meta["time_input"]`` says how the times were read.
+    """
+    path = Path(path)
+    return _lightcurve_from_cells(_csv_table(path), path.name, time_format, time_scale, columns)
+
+
+def read_table(path, time_format: str | None = None, *, time_scale: str = "utc", columns: dict[str, str] | None = None) -> LightCurve:
+    """A FITS (``.fits``, ``.fit``, ``.fts``) or VOTable (``.vot``, ``.votable``, ``.xml``) light curve, read with astropy ``Table.read``.
+
+    The first table of the file, with the columns and options of :func:`read_csv`;
+    a time column stored as an astropy ``Time`` (FITS time columns) is read as such
+    (then ``time_format`` must be ``None``), a numeric one as in :func:`read_csv`.
+    """
+    path = Path(path)
+    fmt = TABLE_FORMATS.get(path.suffix.lower())
+    if fmt is None:
+        raise BadSeries(f"{path.name}: not a table file; expected a name ending in {', '.join(TABLE_FORMATS)}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # astropy's notes on unknown units or extra HDUs; the columns are checked below
+            table = Table.read(path, format=fmt, **({"astropy_native": True} if fmt == "fits" else {}))  # FITS time columns as Time
+    except Exception as e:  # astropy's FITS/VOTable readers raise many types for malformed files
+        first = (str(e).splitlines() or [type(e).__name__])[0]
+        raise BadSeries(f"{path.name}: not a readable {fmt} table ({first[:120]}); expected a table with columns time and mag") from None
+    cells, time_columns = _text_table(table, path.name)
+    return _lightcurve_from_cells(cells, path.name, time_format, time_scale, columns, frozenset(time_columns))
+
+
+def read_lightcurve(path, time_format: str | None = None, *, time_scale: str = "utc", columns: dict[str, str] | None = None) -> LightCurve:
+    """Read an ECSV light curve (as written from :func:`to_timeseries`), an observer's CSV, or a FITS/VOTable table.
+
+    ``time_format``, ``time_scale``, ``columns``: as in :func:`read_csv`, for CSV
+    and table files; an ECSV light curve carries its own time column and units.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"light-curve file not found: {path}")
     suffix = path.suffix.lower()
     if suffix == ".csv":
-        return read_csv(path)
+        return read_csv(path, time_format, time_scale=time_scale, columns=columns)
+    if suffix in TABLE_FORMATS:
+        return read_table(path, time_format, time_scale=time_scale, columns=columns)
     if suffix != ".ecsv":
-        raise BadSeries(f"light-curve file must be .ecsv or .csv, got {path.name}")
+        raise BadSeries(f"light-curve file must be .ecsv, .csv, {', '.join(TABLE_FORMATS)}; got {path.name}")
+    if time_format is not None or columns:
+        raise ReaderOptionError(f"time_format/columns: {time_format!r}/{columns!r}: expected none for an ECSV light curve "
+                                f"({path.name} carries its own time column and units)")
     try:
         ts = TimeSeries.read(path, format="ascii.ecsv")
     except Exception as e:  # malformed header/body
         raise BadSeries(f"{path.name}: not a readable ECSV light curve ({str(e).splitlines()[0]})") from None
-    return from_table(ts)
+    lc = from_table(ts)
+    lc.meta.setdefault("time_input", "ECSV time column (astropy Time), UTC")
+    return lc

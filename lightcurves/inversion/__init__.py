@@ -6,6 +6,10 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 
 * :mod:`~lightcurves.inversion.data` — :class:`InversionCurve`, one light curve with its per-sample
   geometry (Sun and observer directions in the inertial frame I), the input of everything here.
+* :mod:`~lightcurves.inversion.spin` — :class:`SpinState`, the attitude of a principal-axis rotation.
+* :mod:`~lightcurves.inversion.convex` — :class:`ConvexModel` (free facet areas), :class:`EllipsoidModel`.
+* :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement.
+* :mod:`~lightcurves.inversion.posterior` — :class:`SpinSolution`, :class:`InversionResult`.
 
 References
 ----------
@@ -15,6 +19,10 @@ References
    the complete inverse problem*, Icarus 153 (2001).
 """
 
+from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.posterior import InversionResult, SpinSolution
+from lightcurves.inversion.search import invert
+from lightcurves.inversion.spin import SpinState
 
-__all__ = ["InversionCurve"]
+__all__ = ["InversionCurve", "SpinState", "ConvexModel", "EllipsoidModel", "SpinSolution", "InversionResult", "invert"]

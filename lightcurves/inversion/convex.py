@@ -1,13 +1,13 @@
 """Convex shape models for inversion: a Gaussian image of facet areas and the triaxial ellipsoid.
 
 A convex body is determined by its Gaussian image: the area per unit solid angle of outward normals
-(Minkowski; Kaasalainen & Torppa, Icarus 153, 2001, §2). Discretised on a fixed set of unit normals
-``n_j`` with areas ``A_j ≥ 0`` its disk-integrated brightness is linear in the areas (their eq. 1)
+(Minkowski; Kaasalainen & Torppa, Icarus 153, 2001). Discretised on a fixed set of unit normals
+``n_j`` with areas ``A_j ≥ 0`` its disk-integrated brightness is linear in the areas
 
     I(ŝ, ô) = Σ_j A_j · (E☉/π) · S(μ₀ⱼ, μⱼ) · f(α),      μ₀ⱼ = n_j·ŝ, μⱼ = n_j·ô,  both > 0,
 
 with the Lommel–Seeliger + Lambert scattering law ``S = μ₀μ/(μ₀+μ) + c·μ₀μ`` (Kaasalainen, Torppa &
-Muinonen, Icarus 153, 2001, eq. 9; c ≈ 0.1) and an optional phase function ``f(α)`` of the phase angle.
+Muinonen, Icarus 153, 2001; c ≈ 0.1) and an optional phase function ``f(α)`` of the phase angle.
 A convex body casts no shadow on itself, so the sum is exact for it. ``E☉`` = 1361 W/m² makes the
 brightness a radiant intensity in W/sr when the areas are in m² (times a dimensionless reflectance):
 the unit of :func:`lightcurves.render.observed_flux` and of calibrated :class:`InversionCurve` data.

@@ -8,7 +8,7 @@ at the tangent offset ``θ·(e₁·u, e₂·u)`` with θ the angle from the esti
 of ``p`` seen from it (the logarithmic map of the sphere).
 
 Relative probabilities of modes come from their Laplace evidences (MacKay, *Information Theory,
-Inference and Learning Algorithms*, 2003, eq. 28.8)
+Inference and Learning Algorithms*, 2003, ch. 28)
 
     Z_i ∝ exp(−χ²_i / (2 s)) · √det Σ_i · V,
 
@@ -26,7 +26,7 @@ import numpy as np
 from astropy.time import Time
 from scipy.stats import chi2 as chi2_dist
 
-from lightcurves.inversion.spin import SpinState, ecliptic_from_equatorial, pole_frame, radec_from_vector
+from lightcurves.inversion.spin import SpinState, pole_frame
 
 __all__ = ["SpinSolution", "InversionResult", "tangent_offset", "laplace_probabilities", "distinct_modes"]
 
@@ -89,12 +89,12 @@ class SpinSolution:
     @property
     def ecliptic_rad(self) -> tuple[float, float]:
         """Pole (λ, β), rad, J2000 ecliptic."""
-        return ecliptic_from_equatorial(self.pole_I)
+        return self.state.ecliptic_rad
 
     @property
     def radec_rad(self) -> tuple[float, float]:
         """Pole (RA, Dec), rad, J2000 equatorial."""
-        return radec_from_vector(self.pole_I)
+        return self.state.radec_rad
 
     def mahalanobis2(self, pole_I, period_s: float | None = None) -> float:
         """Squared Mahalanobis distance of a pole (and, if given, a sidereal period) from this mode."""

@@ -2,7 +2,7 @@
 
 The body turns at the constant sidereal rate ``ω = 2π/P`` about the inertial direction ``pole_I`` (the
 angular-momentum direction: the rotation is right-handed about it, so the pole carries the sense).
-Its attitude is (eq. 1 of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
+Its attitude is (the rotation model of Kaasalainen, Torppa & Muinonen, Icarus 153, 2001, in matrix form)
 
     C_IT(t) = C_IP · R_z(φ(t)) · C_AT,      φ(t) = φ₀ + ω (t − t₀ − ρ(t)/c)
 
@@ -31,15 +31,12 @@ import numpy as np
 from astropy.time import Time
 
 from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.frames import pole_to_ecliptic, pole_to_radec
 
-__all__ = ["SpinState", "C_LIGHT_M_S", "OBLIQUITY_J2000_RAD", "pole_frame", "axis_frame", "emission_time_s", "rotation_phase", "unspin", "C_TI",
-           "body_directions",
-           "ecliptic_from_equatorial", "equatorial_from_ecliptic", "radec_from_vector", "vector_from_radec"]
+__all__ = ["SpinState", "C_LIGHT_M_S", "pole_frame", "axis_frame", "emission_time_s", "rotation_phase", "unspin", "C_TI", "body_directions"]
 
 C_LIGHT_M_S = 299_792_458.0
 """Speed of light in vacuum, m/s (exact, SI)."""
-OBLIQUITY_J2000_RAD = np.radians(84381.406 / 3600.0)
-"""Mean obliquity of the ecliptic at J2000, ε₀ = 84381.406″ (IAU 2006 precession, Capitaine et al., A&A 412, 2003)."""
 
 
 def _unit(name: str, v) -> np.ndarray:
@@ -113,13 +110,15 @@ class SpinState:
 
     @property
     def ecliptic_rad(self) -> tuple[float, float]:
-        """Pole ecliptic longitude and latitude (λ, β), rad, J2000 mean ecliptic and equinox."""
-        return ecliptic_from_equatorial(self.pole_I)
+        """Pole ecliptic longitude and latitude (λ, β), rad, J2000 mean ecliptic and equinox (:mod:`.frames`)."""
+        lam, beta = pole_to_ecliptic(self.pole_I)
+        return float(lam), float(beta)
 
     @property
     def radec_rad(self) -> tuple[float, float]:
-        """Pole right ascension and declination (α, δ), rad, J2000 (GCRS) axes."""
-        return radec_from_vector(self.pole_I)
+        """Pole right ascension and declination (α, δ), rad, J2000 (GCRS) axes (:mod:`.frames`)."""
+        ra, dec = pole_to_radec(self.pole_I)
+        return float(ra), float(dec)
 
 
 def emission_time_s(curve: InversionCurve, epoch: Time) -> np.ndarray:
@@ -156,29 +155,3 @@ def body_directions(state: SpinState, curve: InversionCurve) -> tuple[np.ndarray
     sun_T = unspin(phi, curve.sun_dir_I @ C_IP) @ C_TA.T
     obs_T = unspin(phi, curve.observer_dir_I @ C_IP) @ C_TA.T
     return sun_T, obs_T
-
-
-def _rx(angle: float) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def radec_from_vector(v) -> tuple[float, float]:
-    """(longitude, latitude) rad of a direction (3,): atan2(y, x) in [0, 2π), asin(z)."""
-    u = _unit("direction", v)
-    return float(np.arctan2(u[1], u[0]) % (2 * np.pi)), float(np.arcsin(np.clip(u[2], -1.0, 1.0)))
-
-
-def vector_from_radec(lon_rad: float, lat_rad: float) -> np.ndarray:
-    """Unit vector (3,) of a (longitude, latitude) pair in rad."""
-    return np.array([np.cos(lat_rad) * np.cos(lon_rad), np.cos(lat_rad) * np.sin(lon_rad), np.sin(lat_rad)])
-
-
-def ecliptic_from_equatorial(v_I) -> tuple[float, float]:
-    """Ecliptic (λ, β) rad, J2000, of an equatorial J2000 direction: a rotation by ε₀ about the equinox (x-axis)."""
-    return radec_from_vector(_rx(-OBLIQUITY_J2000_RAD) @ _unit("direction", v_I))
-
-
-def equatorial_from_ecliptic(lon_rad: float, lat_rad: float) -> np.ndarray:
-    """Unit equatorial J2000 vector (3,) of ecliptic J2000 (λ, β) in rad (inverse of :func:`ecliptic_from_equatorial`)."""
-    return _rx(OBLIQUITY_J2000_RAD) @ vector_from_radec(lon_rad, lat_rad)

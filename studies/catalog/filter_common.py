@@ -189,6 +189,21 @@ def paired_error_figure(runs: pd.DataFrame, path: Path, *, arm: str, labels: tup
     save_png(fig, path)
 
 
+def record_arm(path: Path, tr, run, meas, params: dict, arm: str, *, recording_id: str, extra_scalars: dict | None = None) -> None:
+    """``run.rrd`` of one run of a paired study, its estimates named by what differs between the arms.
+
+    ``/estimate/<filter>_<arm>/...`` with the arm, ``/estimate/<filter>_no_<arm>/...``
+    without (e.g. ``ekf_prior`` and ``ekf_no_prior``), so that recordings of both
+    arms opened together are told apart (:func:`studies.recording.navigation.record_navigation`).
+    """
+    import dataclasses
+
+    from studies.recording.navigation import record_navigation
+
+    name = f"{params['filter']}_{'' if params[arm] else 'no_'}{arm}"
+    record_navigation(path, tr, dataclasses.replace(run, filter=name), meas, recording_id=recording_id, extra_scalars=extra_scalars)
+
+
 def paired_specs(config, arm: str, run_fields) -> list:
     """Filters × {without, with ``arm``} × seeds, run ids ``<filter>-<none|arm>-s<index>``.
 

@@ -28,12 +28,11 @@ from estimators.state import K_STATES, W_B, W_ST_T
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, draw_prior, median_interval, metric_tables, paired_error_figure,
-    paired_specs, pose_noise, thresholds,
+    paired_specs, record_arm, pose_noise, thresholds,
 )
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.recording.navigation import record_navigation
 from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec
@@ -89,7 +88,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         errors = error_series(tr, run)
         with atomic_path(workdir / "errors.parquet") as tmp:
             errors.to_parquet(tmp)
-        record_navigation(workdir / "run.rrd", tr, run, meas, recording_id=f"init-{spec.run_id}")
+        record_arm(workdir / "run.rrd", tr, run, meas, p, "prior", recording_id=f"init-{spec.run_id}")
     return {
         "n_steps": len(tr.t),
         "prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - w_true)),

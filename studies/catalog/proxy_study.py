@@ -32,12 +32,11 @@ from estimators.state import K_STATES, W_B
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, check_common, draw_prior, median_interval, paired_error_figure,
-    paired_specs, pose_noise,
+    paired_specs, record_arm, pose_noise,
 )
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.recording.navigation import record_navigation
 from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import t_interval
@@ -129,8 +128,8 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     if p["record"]:
         with atomic_path(workdir / "errors.parquet") as tmp:
             err.to_parquet(tmp)
-        record_navigation(workdir / "run.rrd", tr, run, meas, recording_id=f"proxy-{spec.run_id}",
-                          extra_scalars={"/measurement/faulty": (meas[0], np.asarray(meas[3], dtype=float))})
+        record_arm(workdir / "run.rrd", tr, run, meas, p, "proxy", recording_id=f"proxy-{spec.run_id}",
+                   extra_scalars={"/measurement/faulty": (meas[0], np.asarray(meas[3], dtype=float))})
     return out
 
 

@@ -6,6 +6,13 @@
         --duration 400 --cadence 0.5 --seed 1 --out lc.ecsv [--record lc.rrd] \\
         [--epoch 2024-03-21T18:00:00 --site 28.2995,-16.5097,2393]
     lcnav lightcurve prior lc.ecsv [--json] [--record prior.rrd]
+    lcnav lightcurve prior obs.csv --time-format mjd --columns time=mjd,mag=magnitude,mag_err=err
+
+A numeric time column is read in the unit ``--time-format`` names; without it,
+as seconds since any origin unless its values or spacing look like another
+unit (:func:`lightcurves.io.ambiguous_time_unit`: MJD, JD, Unix time,
+milliseconds), which is refused (exit 2) rather than turned into a confident
+wrong rate. The prior's text and JSON (``time_input``) say how the times were read.
 
 ``--epoch`` (UTC) and ``--site`` (geodetic latitude, east longitude, height) say
 when and where: the arc is the first one after the epoch in which the target is
@@ -40,6 +47,29 @@ def _vector3(text: str, flag: str) -> np.ndarray:
     if np.linalg.norm(vec) == 0:
         v.fail(flag, text, "three comma-separated numbers, not all zero, like 0,0,1")
     return vec / np.linalg.norm(vec)
+
+
+#: Light-curve files ``prior`` reads: ECSV from ``render``; observers' CSV, FITS and VOTable tables (the suffixes of
+#: ``lightcurves.io.TABLE_FORMATS``, written out so that parsing the command line does not import the readers).
+LIGHTCURVE_SUFFIXES = (".ecsv", ".csv", ".fits", ".fit", ".fts", ".vot", ".votable", ".xml")
+
+
+def _parse_columns(text: str | None) -> dict[str, str] | None:
+    """``--columns time=mjd,mag=magnitude`` as ``{"time": "mjd", "mag": "magnitude"}`` (roles of :data:`lightcurves.io.COLUMN_ROLES`)."""
+    from lightcurves.io import COLUMN_ROLES
+
+    if text is None:
+        return None
+    expected = "ROLE=NAME pairs separated by commas, ROLE one of " + ", ".join(COLUMN_ROLES) + ", each once, like time=mjd,mag=magnitude"
+    pairs = [item.split("=") for item in text.split(",")]
+    if any(len(pair) != 2 or pair[0].strip() not in COLUMN_ROLES or not pair[1].strip() for pair in pairs):
+        v.fail("--columns", text, expected)
+    mapping = {role.strip(): name.strip() for role, name in pairs}
+    if len(mapping) != len(pairs):
+        v.fail("--columns", text, expected)
+    if "mag" in mapping and "flux" in mapping:
+        v.fail("--columns", text, "mag= or flux=, not both")
+    return mapping
 
 
 #: Most samples of a rendered light curve (duration / cadence): each one is a Mitsuba render.
@@ -185,7 +215,15 @@ def render(
 
 @lightcurve_app.command("prior")
 def prior(
-    path: Path = typer.Argument(..., help="light curve (.ecsv from 'render', or .csv with time,mag[,mag_err])", callback=v.in_file((".ecsv", ".csv"))),
+    path: Path = typer.Argument(..., help="light curve: .ecsv from 'render', or a table (.csv, .fits, .vot) with columns time and mag[,mag_err] "
+                                "(or flux[,flux_err]); its time column is ISO 8601 text or numbers in the unit --time-format names (plain "
+                                "numbers without it are read as seconds, and refused where they look like MJD, JD, Unix time or ms)",
+                                callback=v.in_file(LIGHTCURVE_SUFFIXES)),
+    time_format: str | None = typer.Option(None, help="unit of a numeric time column: seconds or ms (since any origin), mjd, jd (days), unix (s since 1970), "
+                                           "... or a text format: isot, iso, fits, yday (astropy Time formats)", callback=v.text()),
+    time_scale: str = typer.Option("utc", help="time scale of the file's times: utc, tai, tt, tdb, tcg or tcb", callback=v.text()),
+    columns: str | None = typer.Option(None, help="the file's column names, e.g. time=mjd,mag=magnitude,mag_err=err or time=jd,flux=counts,flux_err=sigma "
+                                       "(flux of any unit becomes instrumental magnitudes)", callback=v.text()),
     as_json: bool = typer.Option(False, "--json", help="print the prior as JSON"),
     false_alarm_level: float = typer.Option(0.01, help="significance level of a period", callback=v.number(0, 1, lo_open=True, hi_open=True)),
     maxima_per_rotation: int | None = typer.Option(None, help="impose the number of maxima per rotation (1 to 16)", callback=v.count(1, 16)),
@@ -193,14 +231,18 @@ def prior(
 ) -> None:
     """Extract a spin prior (rate, 1-σ, candidates, warnings) from a light curve (multi-harmonic fits of the periodogram's peaks)."""
     from lightcurves import extract_spin_prior
-    from lightcurves.io import read_lightcurve
+    from lightcurves.io import TIME_FORMATS, TIME_SCALES, read_lightcurve
 
-    lc = read_lightcurve(path)
+    if time_format is not None:
+        v.check_text("--time-format", time_format, choices=TIME_FORMATS)
+    v.check_text("--time-scale", time_scale, choices=TIME_SCALES)
+    lc = read_lightcurve(path, time_format, time_scale=time_scale, columns=_parse_columns(columns))
     err = lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None
     phase = lc.phase_angle_rad if np.all(np.isfinite(lc.phase_angle_rad)) else None  # a lower bound of the synodic term of the 1-σ
     p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation,
                            phase_angle_rad=phase)
     d = p.to_dict()
+    d["time_input"] = lc.meta.get("time_input", "")  # how the file's times were read: the unit every rate here rests on
     truth = lc.meta.get("truth_rate_deg_s")
     if truth is not None:
         d["truth_rate_deg_s"] = truth
@@ -210,6 +252,7 @@ def prior(
         maxima = "1 maximum" if p.maxima_per_rotation == 1 else f"{p.maxima_per_rotation} maxima"
         typer.echo(f"rate {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.4f} deg/s (period {p.period_s:.2f} s, {maxima} per rotation)")
         typer.echo(f"  {p.decision}")
+        typer.echo(f"  time: {d['time_input']}")
         if truth is not None:
             typer.echo(f"  truth {truth:.4f} deg/s: error {100 * (p.rate_deg_s / truth - 1):+.2f} %")
         if p.npa_suspected:
@@ -218,6 +261,7 @@ def prior(
             typer.echo(f"  candidate {c.frequency_hz:.6f} Hz  amplitude {c.amplitude_mag:.3f} mag  FAP {c.false_alarm_probability:.2g}  harmonic {c.harmonic}")
     else:
         typer.echo(p.decision)
+        typer.echo(f"  time: {d['time_input']}")
     for w in [] if as_json else p.warnings:
         typer.echo(f"lcnav: warning: {w}", err=True)
     if record is not None:

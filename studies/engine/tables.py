@@ -44,14 +44,24 @@ def _cell(value, fmt: str) -> str:
         return "yes" if value else "no"
     if isinstance(value, float):
         return format(value, fmt)
-    return str(value).replace("|", "\\|")
+    return _escape(str(value))
+
+
+def _escape(text: str) -> str:
+    """``text`` for a Markdown table cell: ``|`` escaped (``max ||q|-1|`` would split the row into cells), one line."""
+    return text.replace("|", "\\|").replace("\n", " ")
 
 
 def to_markdown(table: Table) -> str:
-    """The table as GitHub-flavoured Markdown, with its title as a ``###`` heading and its notes below."""
+    """The table as GitHub-flavoured Markdown, with its title as a ``###`` heading and its notes below.
+
+    Header and cells have their ``|`` escaped, so every row has as many cell
+    separators as the header (column names such as ``|H| drift`` carry units and norms).
+    """
     df = table.frame
     cols = [str(c) for c in df.columns]
-    lines = [f"### {table.title}", "", "| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    header = [_escape(c) for c in cols]
+    lines = [f"### {table.title}", "", "| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for row in df.itertuples(index=False):
         cells = [_cell(v, table.formats.get(c, table.default_format)) for c, v in zip(cols, row)]
         lines.append("| " + " | ".join(cells) + " |")

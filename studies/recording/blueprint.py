@@ -27,7 +27,7 @@ spectrum, camera images and clouds — only the panels for what the run holds.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import rerun.blueprint as rrb
@@ -36,11 +36,17 @@ from studies.recording.writer import send_scalars
 
 AXES = ("x", "y", "z")
 
-#: One hue per component, shared by truth, estimate and error, so a plot pairs them at a glance.
+#: One hue per component, shared by estimate and error, so a plot pairs them at a glance (the truth is neutral: TRUTH_RGBA).
 COMPONENT_RGB = {"w": (110, 110, 110), "x": (215, 50, 45), "y": (35, 150, 60), "z": (40, 90, 215),
                  "k1": (200, 120, 20), "k2": (130, 60, 190)}
 #: The ±3σ envelope: thin and grey, so it reads as a bound, not as data.
 SIGMA_RGBA = (140, 140, 140, 150)
+#: The truth: one fixed neutral near-black for every component, wide and translucent under the coloured estimates, so
+#: that truth and estimate are told apart by colour, not by a shade of one hue (the viewer draws no dashed lines).
+TRUTH_RGBA = (25, 25, 25, 140)
+#: The part of a run (its last fraction, by time) whose errors and gate values set a plot's visible range
+#: (:func:`converged_range`): the first seconds' transient would otherwise flatten everything after it.
+CONVERGED_FRACTION = 0.5
 
 
 def _component_rgb(axis: str, index: int) -> tuple[int, int, int]:
@@ -58,8 +64,8 @@ def style_series(rec, entity: str, name: str, rgba, *, width: float) -> None:
 def send_truth(rec, quantity: str, t_s, values, axes: Sequence[str] = AXES) -> None:
     """``/truth/<quantity>/<axis>`` (``values`` of shape ``(N, len(axes))``, or ``(N,)`` for ``/truth/<quantity>``)."""
     send_scalars(rec, f"/truth/{quantity}", t_s, values, list(axes))
-    for j, a in enumerate(axes):  # wide and pale under the estimate, in the same hue
-        style_series(rec, f"/truth/{quantity}/{a}", f"truth {a}", (*_component_rgb(a, j), 110), width=4.0)
+    for a in axes:  # wide, translucent and neutral under the estimate (TRUTH_RGBA)
+        style_series(rec, f"/truth/{quantity}/{a}", f"truth {a}", TRUTH_RGBA, width=3.0)
 
 
 def send_estimate(rec, filter_name: str, quantity: str, t_s, estimate, *, truth=None, sigma=None,
@@ -119,12 +125,35 @@ def send_quaternion(rec, filter_name: str, quantity: str, t_s, q_estimate, q_tru
     send_estimate(rec, filter_name, quantity, t_s, q_est, axes=axes)
 
 
-def whole_run_plot(**view) -> rrb.TimeSeriesView:
-    """A time-series view over the whole ``sim_time`` range (not a window that follows the time cursor)."""
+def converged_range(t_s, *series, fraction: float = CONVERGED_FRACTION, margin: float = 1.25,
+                    floor: float = 0.0) -> tuple[float, float]:
+    """``(lo, hi)``: a plot's visible range that holds ``series`` over the last ``fraction`` of the run, with ``margin``.
+
+    ``t_s`` (N,) and each series (N,) or (N, m), NaN ignored. Symmetric about 0
+    when the series take both signs (errors and their ±3σ), else from 0 up to the
+    largest value (an e² and its bounds); at least ``floor`` high. Where no value is
+    finite, ``(-1, 1)``.
+    """
+    t = np.asarray(t_s, dtype=float)
+    late = t >= t[0] + (1.0 - fraction) * (t[-1] - t[0])
+    values = np.concatenate([np.asarray(v, dtype=float).reshape(len(t), -1)[late].ravel() for v in series])
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return (-1.0, 1.0)
+    top = max(margin * float(np.abs(values).max()), floor)
+    return (-top, top) if values.min() < 0 else (0.0, top)
+
+
+def whole_run_plot(*, y_range: tuple[float, float] | None = None, **view) -> rrb.TimeSeriesView:
+    """A time-series view over the whole ``sim_time`` range (not a window that follows the time cursor).
+
+    ``y_range``: the visible range of the values (:func:`converged_range`); ``None`` lets the viewer fit all of them.
+    """
     everything = {"start": rrb.TimeRangeBoundary.infinite(), "end": rrb.TimeRangeBoundary.infinite()}
+    axis_y = None if y_range is None else rrb.ScalarAxis(range=tuple(float(v) for v in y_range), zoom_lock=False)
     return rrb.TimeSeriesView(**view, time_ranges=rrb.VisibleTimeRange("sim_time", **everything),
                               axis_x=rrb.TimeAxis(view_range=rrb.TimeRange(**everything), zoom_lock=False),
-                              plot_legend=rrb.PlotLegend(visible=True))
+                              axis_y=axis_y, plot_legend=rrb.PlotLegend(visible=True))
 
 
 def run_blueprint(
@@ -137,6 +166,8 @@ def run_blueprint(
     spectrum: bool = False,
     cameras: bool = False,
     cloud: bool = False,
+    error_ranges: Mapping[tuple[str, str], tuple[float, float]] | None = None,
+    gate_range: tuple[float, float] | None = None,
 ) -> rrb.Blueprint:
     """The viewer layout of one run, in tabs, the first (truth vs estimate) active.
 
@@ -146,7 +177,11 @@ def run_blueprint(
     truth and every filter's estimate), *errors* (one plot per filter and
     quantity: error and ±3σ), *gates*, *light curve* (curve and spectrum),
     *perception* (both cameras and the 3-D clouds with the truth pose).
+    ``error_ranges`` (``{(filter, quantity): (lo, hi)}``) and ``gate_range`` set
+    those plots' visible ranges (:func:`converged_range`), so that the converged
+    errors, their ±3σ and the gate bounds are readable after the initial transient.
     """
+    error_ranges = dict(error_ranges or {})
     tabs = []
     if quantities:
         views = [
@@ -156,13 +191,13 @@ def run_blueprint(
         tabs.append(rrb.Grid(*views, name="states"))
         if errors and filters:
             err_views = [
-                whole_run_plot(name=f"{f}: {q} error ±3σ", origin=f"/estimate/{f}/error/{q}")
+                whole_run_plot(name=f"{f}: {q} error ±3σ", origin=f"/estimate/{f}/error/{q}", y_range=error_ranges.get((f, q)))
                 for f in filters
                 for q in quantities
             ]
             tabs.append(rrb.Grid(*err_views, name="errors ±3σ"))
     if gates:
-        tabs.append(rrb.Vertical(whole_run_plot(name="gates: e² and bounds", origin="/gate"),
+        tabs.append(rrb.Vertical(whole_run_plot(name="gates: e² and bounds", origin="/gate", y_range=gate_range),
                                  rrb.TextLogView(name="gate events", origin="/gate"), name="gates"))
     lc = []
     if lightcurve:
@@ -203,7 +238,9 @@ def lightcurve_blueprint(*, spectra: Sequence[str] = ("dirty", "clean", "residua
         ),
         name="light curve",
     )
-    spectrum = rrb.Vertical(*(rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}") for n in spectra),
+    views = [rrb.BarChartView(name=f"{n} spectrum (amplitude vs mHz)", origin=f"/spectrum/{n}",
+                              contents=[f"/spectrum/{n}"] + (["/spectrum/rotation_frequency"] if n == "clean" else [])) for n in spectra]
+    spectrum = rrb.Vertical(*views,
                             rrb.TextDocumentView(name="extracted prior", origin="/spectrum/summary"), name="spectrum")
     return rrb.Blueprint(rrb.Tabs(curve, spectrum, active_tab=0), rrb.TimePanel(timeline="sim_time", play_state="paused"),
                          collapse_panels=True)

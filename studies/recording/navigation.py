@@ -9,7 +9,7 @@ import numpy as np
 from estimators.error_state import boxminus
 from estimators.navigation import SOURCES, NavigationRun
 from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T, K, Q_TS, R_ST_T, V_ST_T, W_ST_T
-from studies.recording.blueprint import AXES, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
+from studies.recording.blueprint import AXES, converged_range, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
 from studies.recording.writer import recording, send_scalars, set_sim_time
 from studies.sim.truth import Truth
 
@@ -28,11 +28,17 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
     sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
     quantities = {"w_ST_T": (W_ST_T, DW_ST_T, AXES), "r_ST_T": (R_ST_T, DR_ST_T, AXES),
                   "v_ST_T": (V_ST_T, DV_ST_T, AXES), "k": (K, DK, ("k1", "k2"))}
-    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True)
+    error = {"q_TS": (boxminus(run.x, tr.x)[:, DTHETA], sig[:, DTHETA])}
+    error.update({name: (run.x[:, sl] - tr.x[:, sl], sig[:, esl]) for name, (sl, esl, _) in quantities.items()})
+    # visible ranges from the converged part: the initial transient would flatten the rest of each plot
+    error_ranges = {(f, name): converged_range(t, e, 3.0 * s, -3.0 * s) for name, (e, s) in error.items()}
+    upper = max((d.upper for d in run.decisions), default=0.0)  # the gates' chi-square bound stays in view
+    gate_range = converged_range(t, np.column_stack([run.nis[s] for s in SOURCES]), floor=1.25 * upper)
+    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True, error_ranges=error_ranges, gate_range=gate_range)
     with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
         send_quaternion(rec, f, "q_TS", t, run.x[:, Q_TS], tr.x[:, Q_TS], QUAT_AXES)
         # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
-        send_error(rec, f, "q_TS", t, boxminus(run.x, tr.x)[:, DTHETA], sig[:, DTHETA])
+        send_error(rec, f, "q_TS", t, *error["q_TS"])
         for name, (sl, esl, axes) in quantities.items():
             send_truth(rec, name, t, tr.x[:, sl], axes)
             send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)

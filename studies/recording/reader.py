@@ -104,6 +104,7 @@ def _flatten(name: str, series: pd.Series) -> dict[str, np.ndarray] | None:
         arrays = [_cell_values(v) for v in series]
     except (TypeError, ValueError):
         return None
+    arrays = [None if a is None or not a.size else a for a in arrays]  # an empty cell is a cleared row: a break in a line, no value
     lengths = {a.size for a in arrays if a is not None}
     if len(lengths) != 1:
         return None
@@ -124,7 +125,8 @@ def export_series(path, contents: list[str] | None = None) -> tuple[pd.DataFrame
     Scalars become one column named by the entity path; fixed-size vectors
     (translations, quaternions) one column per element (``path:component[i]``).
     Static data and columns of other shapes (images, clouds) are left out;
-    their names are returned as the second item.
+    their names are returned as the second item. Rows with no value at all (the
+    cleared rows that break a plotted line at a light curve's gaps) are left out.
     """
     path = Path(path)
     _, _, store = _open_store(path)
@@ -145,4 +147,8 @@ def export_series(path, contents: list[str] | None = None) -> tuple[pd.DataFrame
             skipped.append(col)
         else:
             out.update(flat)
-    return pd.DataFrame(out), skipped
+    frame = pd.DataFrame(out)
+    values = frame.drop(columns=TIME_COLUMN)
+    if values.shape[1]:
+        frame = frame[values.notna().any(axis=1).to_numpy()].reset_index(drop=True)
+    return frame, skipped

@@ -21,7 +21,7 @@ from lightcurves import BadSeries
 from lightcurves.io import DuplicateTimesWarning, LightCurve, merge_duplicate_times, read_lightcurve, to_timeseries
 from lightcurves.samples import MIN_SAMPLES
 
-SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture], derandomize=True)
+SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow], derandomize=True)
 
 
 def check_usable(lc: LightCurve) -> None:

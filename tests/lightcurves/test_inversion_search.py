@@ -5,7 +5,6 @@ The data come from the ellipsoid model itself (so the likelihood is exact) with 
 geometry of a ground site (lightcurves.geometry). Sizes are small: every inversion here runs in a few seconds.
 """
 
-import astropy.units as u
 import numpy as np
 import pytest
 from astropy.time import Time
@@ -17,7 +16,8 @@ from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.posterior import laplace_probabilities
 from lightcurves.inversion.search import invert, period_grid, profiled_chi2
-from lightcurves.inversion.spin import SpinState, body_directions, vector_from_radec
+from lightcurves.inversion.frames import pole_from_radec
+from lightcurves.inversion.spin import SpinState, body_directions, pole_frame
 from lightcurves.render import observed_flux
 
 EPOCH = Time("2026-01-01T00:00:00", scale="utc")
@@ -63,7 +63,7 @@ def _passes(rng, n=100, pass_s=600.0, gap_s=3600.0, sweep_deg=80.0, coplanar=Fal
 
 def test_known_shape_recovers_pole_period_and_sense():
     rng = np.random.default_rng(11)
-    truth = SpinState(vector_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
     seen = []
     res = invert(curves, ELLIPSOID, (59.7, 60.3), progress=lambda i, n: seen.append((i, n)), **FAST)
@@ -85,26 +85,24 @@ def test_known_shape_recovers_pole_period_and_sense():
 def test_relative_and_calibrated_curves_mix():
     """One calibrated night fixes the reflectance (truth 1); the relative nights' scales are 1/mean flux."""
     rng = np.random.default_rng(12)
-    truth = SpinState(vector_from_radec(4.0, -0.3), 45.0, 1.0, EPOCH)
+    truth = SpinState(pole_from_radec(4.0, -0.3), 45.0, 1.0, EPOCH)
     geometry = _passes(rng)
     curves = _observe_curves(truth, ELLIPSOID, geometry, rng, calibrated=[False, True, False])
     best = invert(curves, ELLIPSOID, (44.8, 45.2), **FAST).best
     assert _angle_deg(best.pole_I, truth.pole_I) < 3.0 and best.contains(truth.pole_I, level=0.997)
     assert best.weights[0] == pytest.approx(1.0, rel=0.03)
     assert best.scales[1] == 1.0
-    for k in (0, 2):
-        f_mean = np.mean(curves[k].brightness / curves[k].brightness.mean()) / np.mean(curves[k].brightness) * curves[k].brightness.mean()
-        # relative brightness = flux / mean flux, so the fitted factor is ≈ 1 / mean flux
+    for k in (0, 2):  # relative brightness = flux / mean flux, so the fitted factor is 1 / mean flux
         B = ELLIPSOID.basis(*body_directions(truth, curves[k]))[:, 0]
         mean_flux = observed_flux(B, curves[k].range_m, curves[k].sun_distance_m).mean()
-        assert best.scales[k] * mean_flux == pytest.approx(f_mean, rel=0.03)
+        assert best.scales[k] * mean_flux == pytest.approx(1.0, rel=0.03)
 
 
 def test_mirror_pole_is_reported_for_coplanar_geometry():
     """Sun and observer in one plane (here I's xy-plane): a pole p and its mirror (−p_x, −p_y, p_z) give the same light
     curves for a mirror-symmetric shape (Kaasalainen & Lamberg, Inverse Problems 22, 2006); both are reported."""
     rng = np.random.default_rng(13)
-    truth = SpinState(vector_from_radec(0.7, 0.5), 50.0, 0.0, EPOCH)
+    truth = SpinState(pole_from_radec(0.7, 0.5), 50.0, 0.0, EPOCH)
     mirror = truth.pole_I * np.array([-1.0, -1.0, 1.0])
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng, coplanar=True), rng)
     res = invert(curves, ELLIPSOID, (49.8, 50.2), **FAST)
@@ -119,18 +117,16 @@ def test_unknown_convex_shape_and_brute_force_grid():
     """Unknown shape (free facet areas) on ellipsoid data; then a dense grid of the SAME profiled likelihood around the
     solution finds no lower χ² than the refinement and its minimum next to it."""
     rng = np.random.default_rng(14)
-    truth = SpinState(vector_from_radec(2.5, 0.2), 60.0, 0.0, EPOCH)
+    truth = SpinState(pole_from_radec(2.5, 0.2), 60.0, 0.0, EPOCH)
     model = ConvexModel(60)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng, noise=0.05)
     best = invert(curves, model, (59.8, 60.2), **FAST).best
-    # the search finds a fit at least as good as the truth's (the unknown-shape pole itself is only loosely
-    # determined by three passes: see the README's measured errors)
+    # the search finds a fit at least as good as the truth's: with free areas three passes leave the pole loosely
+    # determined (measured 7–26° errors on such data, beyond the Gauss–Newton σ of ~1°), so no pole bound here
     assert best.chi2 <= profiled_chi2(curves, model, truth)[0] + 1.0
     assert abs(best.chi2 - 300) < 4 * np.sqrt(2 * 300)
     # brute force around the optimum: pole offsets along the two tangent axes × periods, ±3σ
     C = np.linalg.cholesky(best.covariance)
-    from lightcurves.inversion.spin import pole_frame
-
     e = pole_frame(best.pole_I)
     grid = np.linspace(-3, 3, 7)
     chi2 = {}
@@ -160,7 +156,7 @@ def test_ground_site_geometry_over_three_nights():
         assert run.any() and ob.visible.all()
         geometry.append((ob.t_s, ob.sun_dir_I, ob.observer_dir_I, ob.sun_distance_m, ob.range_m))
     rng = np.random.default_rng(15)
-    truth = SpinState(vector_from_radec(3.0, -0.8), 40.0, 0.5, epoch, [1.0, 0.0, 0.0])
+    truth = SpinState(pole_from_radec(3.0, -0.8), 40.0, 0.5, epoch, [1.0, 0.0, 0.0])
     curves = [InversionCurve(c.t_s, epoch, c.brightness, c.sigma, c.sun_dir_I, c.observer_dir_I, c.sun_distance_m, c.range_m)
               for c in _observe_curves(SpinState(truth.pole_I, 40.0, 0.5, EPOCH, truth.axis_T), ELLIPSOID, geometry, rng)]
     # the period known to 0.05 % (a user's synodic estimate, narrowed to keep the test short)

@@ -11,7 +11,7 @@ import numpy as np
 from estimators.state import R_ST_T, W_ST_T
 from lightcurves.prior import extract_spin_prior
 from studies.recording.reader import _open_store, export_series
-from studies.recording.lightcurve import write_lightcurve_recording
+from studies.recording.lightcurve import SPECTRUM_LEVEL, spectrum_top_hz, write_lightcurve_recording
 from studies.recording.perception import write_frame_recording
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import simulate_truth
@@ -40,10 +40,22 @@ def test_lightcurve_recording_carries_its_layout_and_the_curve_as_flux(tmp_path)
     table = store.reader(None, contents={"/spectrum/clean": ["BarChart:abscissa", "BarChart:values"]}).to_arrow_table()
     abscissa = np.asarray(table.column("/spectrum/clean:BarChart:abscissa").to_pylist()[0][0]["buffer"])
     values = np.asarray(table.column("/spectrum/clean:BarChart:values").to_pylist()[0][0]["buffer"])
-    np.testing.assert_allclose(abscissa, 1e3 * prior.spectrum.frequency_hz, rtol=1e-12)
-    np.testing.assert_allclose(values, 2 * np.abs(prior.spectrum.clean), rtol=1e-12)
+    # up to where the power is (spectrum_top_hz), not the whole search band
+    band = prior.spectrum.frequency_hz <= spectrum_top_hz(prior.spectrum, prior.frequency_hz)
+    assert 0 < band.sum() < band.size
+    np.testing.assert_allclose(abscissa, 1e3 * prior.spectrum.frequency_hz[band], rtol=1e-12)
+    np.testing.assert_allclose(values, 2 * np.abs(prior.spectrum.clean)[band], rtol=1e-12)
+    amp = np.abs(prior.spectrum.clean)
+    assert np.all(amp[~band] < SPECTRUM_LEVEL * amp.max())  # what is left out holds no clean component above 5 % of the peak
     # the extracted rotation frequency is where the clean spectrum peaks (within one bin)
     assert abs(abscissa[np.argmax(values)] - 1e3 * prior.frequency_hz * prior.maxima_per_rotation) <= abscissa[1] - abscissa[0]
+    # and a marker bar stands at it, as tall as the clean peak, in the clean spectrum's view
+    marker = store.reader(None, contents={"/spectrum/rotation_frequency": ["BarChart:abscissa", "BarChart:values"]}).to_arrow_table()
+    at = np.asarray(marker.column("/spectrum/rotation_frequency:BarChart:abscissa").to_pylist()[0][0]["buffer"])
+    height = np.asarray(marker.column("/spectrum/rotation_frequency:BarChart:values").to_pylist()[0][0]["buffer"])
+    np.testing.assert_allclose(at, [1e3 * prior.frequency_hz], rtol=1e-12)
+    np.testing.assert_allclose(height, [values.max()], rtol=1e-12)
+    assert "/spectrum/rotation_frequency" in blueprint_views(path)[1]
 
 
 def test_truth_recording_carries_its_layout_and_the_scenario_rates(tmp_path):

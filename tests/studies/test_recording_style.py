@@ -7,7 +7,7 @@ from hypothesis.extra.numpy import arrays
 from rerun.chunk import RrdReader
 
 from estimators.attitude import quat_multiply
-from studies.recording.blueprint import SIGMA_RGBA, hemisphere_continuous, run_blueprint, send_estimate, send_quaternion, send_truth
+from studies.recording.blueprint import SIGMA_RGBA, TRUTH_RGBA, hemisphere_continuous, run_blueprint, send_estimate, send_quaternion, send_truth
 from studies.recording.reader import export_series
 from studies.recording.writer import recording
 from tests.rerun_cli import assert_rrd_verifies
@@ -37,7 +37,7 @@ def test_hemisphere_continuous_keeps_each_attitude_and_removes_every_flip(q):
     assert np.all(np.einsum("ij,ij->i", c[1:], c[:-1]) >= 0.0)
 
 
-def test_truth_and_estimate_share_a_hue_and_sigma_is_a_grey_bound(tmp_path):
+def test_estimate_and_error_share_a_hue_truth_is_neutral_and_sigma_a_grey_bound(tmp_path):
     t = np.arange(10.0)
     truth = np.column_stack([np.sin(t), np.cos(t), t])
     path = tmp_path / "style.rrd"
@@ -51,8 +51,9 @@ def test_truth_and_estimate_share_a_hue_and_sigma_is_a_grey_bound(tmp_path):
         truth_rgba = rgb(style[f"/truth/w_ST_T/{a}"]["SeriesLines:colors"][0][0])
         est_rgba = rgb(style[f"/estimate/ekf/w_ST_T/{a}"]["SeriesLines:colors"][0][0])
         err_rgba = rgb(style[f"/estimate/ekf/error/w_ST_T/{a}/value"]["SeriesLines:colors"][0][0])
-        assert truth_rgba[:3] == est_rgba[:3] == err_rgba[:3]
-        assert truth_rgba[3] < est_rgba[3]  # truth drawn pale (and wide) under the estimate
+        assert est_rgba[:3] == err_rgba[:3]
+        assert truth_rgba == TRUTH_RGBA and truth_rgba[:3] != est_rgba[:3]  # truth in one neutral colour, told apart by colour
+        assert truth_rgba[3] < est_rgba[3]  # and drawn translucent (and wide) under the estimate
         hues.add(est_rgba[:3])
         for side in ("plus3sigma", "minus3sigma"):
             assert rgb(style[f"/estimate/ekf/error/w_ST_T/{a}/{side}"]["SeriesLines:colors"][0][0]) == SIGMA_RGBA

@@ -8,7 +8,6 @@ run's temporary files.
 
 import json
 import os
-import time
 from pathlib import Path
 
 import numpy as np
@@ -84,9 +83,7 @@ def test_huge_config_values_are_refused_at_once(tmp_path, capsys, edit, needle):
     assert old in text
     cfg = tmp_path / "c.toml"
     cfg.write_text(text.replace(old, new, 1))
-    t0 = time.perf_counter()
-    one_error(capsys, ["study", "truth", "--config", cfg, "--out", tmp_path / "out"], needle)
-    assert time.perf_counter() - t0 < 5.0  # refused, not run (n_seeds = 1e12 used to hang)
+    one_error(capsys, ["study", "truth", "--config", cfg, "--out", tmp_path / "out"], needle)  # returns: refused, not run (1e12 seeds used to hang)
     assert not (tmp_path / "out").exists()
 
 
@@ -128,10 +125,9 @@ def test_rate_1e308_is_refused(tmp_path, capsys):
 
 
 def test_combina_rate_1e6_is_refused_at_once(tmp_path, capsys):
-    t0 = time.perf_counter()
     one_error(capsys, ["combina", "--rate-hz", "1e6", "--out", tmp_path / "o"], "--rate-hz 1000000.0: expected a finite number within (0, 10] Hz")
     one_error(capsys, ["combina", "--rate-hz", "10", "--duration-tu", "100", "--out", tmp_path / "o"], "at most 100000 measurements")
-    assert time.perf_counter() - t0 < 5.0 and not (tmp_path / "o").exists()
+    assert not (tmp_path / "o").exists()  # refused before anything ran
 
 
 # ---------------------------------------------------------------- wrongly accepted

@@ -114,10 +114,9 @@ def test_killed_sweep_resumes_with_every_run_exactly_once(tmp_path, lcnav_env):
     cmd = [sys.executable, "-m", "studies.cli", "study", "truth", "--config", str(cfg), "--out", str(out), "--workers", "1"]
     proc = subprocess.Popen(cmd, env=lcnav_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
-        deadline = time.monotonic() + 120
+        # no wall-time bound: the sweep either writes a result or ends (8 finite runs), so the wait ends either way
         while not list(out.glob(f"runs/*/{RESULT_FILE}")):
             assert proc.poll() is None, "the sweep ended before writing a result"
-            assert time.monotonic() < deadline, "no result within 120 s"
             time.sleep(0.05)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)  # the command and its local Dask cluster
