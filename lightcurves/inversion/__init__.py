@@ -10,6 +10,8 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 * :mod:`~lightcurves.inversion.convex` — :class:`ConvexModel` (free facet areas), :class:`EllipsoidModel`.
 * :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement.
 * :mod:`~lightcurves.inversion.posterior` — :class:`SpinSolution`, :class:`InversionResult`.
+* :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target as facets: its intensity (W/sr) as Mitsuba renders it.
+* :mod:`~lightcurves.inversion.frames`, :mod:`~lightcurves.inversion.io` — pole conversions; DAMIT, ECSV and CSV readers.
 
 References
 ----------
@@ -21,8 +23,9 @@ References
 
 from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
+from lightcurves.inversion.known_shape import KnownShapeModel
 from lightcurves.inversion.posterior import InversionResult, SpinSolution
 from lightcurves.inversion.search import invert
 from lightcurves.inversion.spin import SpinState
 
-__all__ = ["InversionCurve", "SpinState", "ConvexModel", "EllipsoidModel", "SpinSolution", "InversionResult", "invert"]
+__all__ = ["InversionCurve", "SpinState", "ConvexModel", "EllipsoidModel", "KnownShapeModel", "SpinSolution", "InversionResult", "invert"]
