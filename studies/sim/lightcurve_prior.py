@@ -132,16 +132,24 @@ def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str 
     return ObservedNights(tuple(lcs), tuple(sims), SpinTruth(pole_I, axis_T, rate), target)
 
 
-def _period_range(rate_prior, min_fraction: float = 0.01, n_sigma: float = 3.0) -> tuple[float, float]:
-    """Sidereal-period search range around the single-night (synodic) period: ±max(n σ, 1 %)."""
+def _period_ranges(rate_prior, min_fraction: float = 0.01, n_sigma: float = 3.0) -> list[tuple[float, float]]:
+    """Sidereal-period search ranges: ±max(n σ, 1 %) around the single-night period P, and around 2P.
+
+    One night tells the light curve's period, not always the rotation's: a body whose two ends look alike
+    gives two equal maxima per turn, and the rate prior then reports twice the rate (README, "Known
+    limitations"). A known shape tells P from 2P by the fit, so both are searched.
+    """
     rate, sigma = rate_prior.rate_rad_s, rate_prior.rate_sigma_rad_s
     half = max(n_sigma * sigma / rate, min_fraction)
     P = 2.0 * np.pi / rate
-    return P * (1.0 - half), P * (1.0 + half)
+    return [(m * P * (1.0 - half), m * P * (1.0 + half)) for m in (1, 2)]
 
 
 def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=None) -> BuiltPrior:
-    """The filters' ``ω_T`` prior from ``lightcurves`` of ``target`` (its model known), and nothing else (module docstring)."""
+    """The filters' ``ω_T`` prior from ``lightcurves`` of ``target`` (its model known), and nothing else (module docstring).
+
+    Both period ranges of :func:`_period_ranges` are inverted; the better fit (lower χ²) is kept.
+    """
     from lightcurves import extract_spin_prior
     from lightcurves.inversion.io import from_lightcurve
     from lightcurves.inversion.known_shape import KnownShapeModel
@@ -155,10 +163,13 @@ def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=
     rate_prior = extract_spin_prior(longest.t_s, longest.mag, longest.mag_err, sun_dir=longest.sun_dir_I, observer_dir=longest.observer_dir_I)
     if not rate_prior.significant:
         return BuiltPrior(rate_prior, None, None, None, None, None, "no significant period in the longest night: no prior")
-    period_range = _period_range(rate_prior)
     tgt = get_target(target)
+    model = KnownShapeModel.from_target(tgt)
     curves = [from_lightcurve(lc, calibrated=True, name=f"night {k}") for k, lc in enumerate(lightcurves)]
-    result = invert(curves, KnownShapeModel.from_target(tgt), period_range, rng=rng, progress=progress)
+    fits = []
+    for period_range in _period_ranges(rate_prior):
+        fits.append((invert(curves, model, period_range, rng=rng, progress=progress), period_range))
+    result, period_range = min(fits, key=lambda f: f[0].best.chi2)
     ip = spin_prior_from_inversion(result, tgt.J_diag, source=f"inversion of {len(curves)} night(s) of {target}")
     tuning_spin = BodyRatePrior.from_rate(ip.rate_rad_s, ip.rate_sigma_rad_s, ip.axis_T, source="best inversion mode")
     return BuiltPrior(rate_prior, period_range, result, ip, ip.prior, tuning_spin, ip.description)
