@@ -118,6 +118,19 @@ def render_prior(
     return RenderedPrior(observed, built)
 
 
+def inversion_summary(result) -> dict:
+    """The inversion's modes as JSON-ready numbers (best first): probability, pole (ecliptic, equatorial, σ), period, axis."""
+    rows = []
+    for s in result.solutions:
+        lam, beta = np.degrees(s.ecliptic_rad)
+        ra, dec = np.degrees(s.radec_rad)
+        rows.append({"probability": float(s.probability), "pole_ecliptic_lon_deg": float(lam), "pole_ecliptic_lat_deg": float(beta),
+                     "pole_ra_deg": float(ra), "pole_dec_deg": float(dec), "pole_sigma_deg": float(s.pole_sigma_deg),
+                     "sidereal_period_s": float(s.period_s), "sidereal_period_sigma_s": float(s.period_sigma_s),
+                     "body_spin_axis_T": np.asarray(s.state.axis_T).tolist(), "chi2": float(s.chi2)})
+    return {"solutions": rows, "dof": int(result.dof), "chi2_scale": float(result.chi2_scale)}
+
+
 def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:
     """The tuning name an arm uses: ``general-conservative`` without a prior, else the one the prior points to.
 
