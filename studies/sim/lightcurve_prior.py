@@ -30,7 +30,7 @@ import numpy as np
 from estimators.prior import BodyRatePrior
 from studies.sim.scenarios import Scenario
 
-__all__ = ["spin_axis", "SpinTruth", "ObservedNights", "BuiltPrior", "observe_nights", "build_prior", "score_prior", "OBSERVER_META"]
+__all__ = ["candidate_axes", "spin_axis", "SpinTruth", "ObservedNights", "BuiltPrior", "observe_nights", "build_prior", "score_prior", "OBSERVER_META"]
 
 #: The metadata an observer's light-curve file keeps: provenance and geometry, never the truth.
 OBSERVER_META = ("target", "site", "orbit", "epoch", "arc_start_s", "cadence_s", "duration_s", "noise", "renderer", "night")
@@ -132,6 +132,21 @@ def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str 
     return ObservedNights(tuple(lcs), tuple(sims), SpinTruth(pole_I, axis_T, rate), target)
 
 
+#: Most facets of the model the inversion searches with (a coarser copy of a finer target).
+SEARCH_FACETS = 128
+
+
+def candidate_axes(J_T_diag) -> np.ndarray:
+    """Body spin axes the known-shape search starts from: the principal axes ±x, ±y, ±z; for a target symmetric about ``s``,
+    ``±s`` and one axis ⟂ ``s`` (the others ⟂ ``s`` give the same light curves: turning the body about ``s`` leaves it alike)."""
+    from lightcurves.inversion.prior import symmetry_axis
+
+    s = symmetry_axis(J_T_diag)
+    if s is None:
+        return np.vstack([np.eye(3), -np.eye(3)])
+    return np.vstack([s, -s, np.roll(s, 1)])
+
+
 def _period_ranges(rate_prior, min_fraction: float = 0.01, n_sigma: float = 3.0) -> list[tuple[float, float]]:
     """Sidereal-period search ranges: ±max(n σ, 1 %) around the single-night period P, and around 2P.
 
@@ -165,10 +180,13 @@ def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=
         return BuiltPrior(rate_prior, None, None, None, None, None, "no significant period in the longest night: no prior")
     tgt = get_target(target)
     model = KnownShapeModel.from_target(tgt)
+    if model.n_facets > SEARCH_FACETS:  # the search evaluates the model ~10⁵ times: a coarse model within ~1 % (bench_inversion_forward)
+        model = model.coarse(SEARCH_FACETS)
     curves = [from_lightcurve(lc, calibrated=True, name=f"night {k}") for k, lc in enumerate(lightcurves)]
     fits = []
     for period_range in _period_ranges(rate_prior):
-        fits.append((invert(curves, model, period_range, rng=rng, progress=progress), period_range))
+        fits.append((invert(curves, model, period_range, rng=rng, progress=progress, axes_T=candidate_axes(tgt.J_diag),
+                            n_candidates=4, n_periods_per_pole=2), period_range))
     result, period_range = min(fits, key=lambda f: f[0].best.chi2)
     ip = spin_prior_from_inversion(result, tgt.J_diag, source=f"inversion of {len(curves)} night(s) of {target}")
     tuning_spin = BodyRatePrior.from_rate(ip.rate_rad_s, ip.rate_sigma_rad_s, ip.axis_T, source="best inversion mode")
