@@ -117,11 +117,12 @@ class AbsoluteTrajectory:
         return self.y[:, W_B]
 
 
-def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1e-12, atol: float = 1e-12) -> AbsoluteTrajectory:
+def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1e-12, atol: float = 1e-12, *, rhs=None) -> AbsoluteTrajectory:
     """Truth integration of :func:`absolute_rhs_nb` with DOP853 at tight tolerances.
 
     Position and velocity are integrated in units scaled by the initial radius and
-    circular speed so that one ``atol`` fits every component.
+    circular speed so that one ``atol`` fits every component. ``rhs(s) -> ṡ`` (13)
+    replaces :func:`absolute_rhs_nb` (the perturbed truth of :mod:`estimators.perturbations`).
     """
     y0 = np.asarray(y0, dtype=float)
     t_eval = np.asarray(t_eval, dtype=float)
@@ -130,10 +131,12 @@ def integrate_absolute(y0, t_eval, J_diag, mu: float = MU_EARTH, rtol: float = 1
     V = np.sqrt(mu / L)
     scale = np.concatenate([np.full(3, L), np.full(3, V), np.ones(7)])
 
-    def rhs(t, z):
-        return absolute_rhs_nb(z * scale, J, mu) / scale
+    f = (lambda s: absolute_rhs_nb(s, J, mu)) if rhs is None else rhs
 
-    sol = solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0 / scale, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+    def rhs_scaled(t, z):
+        return f(z * scale) / scale
+
+    sol = solve_ivp(rhs_scaled, (t_eval[0], t_eval[-1]), y0 / scale, method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
     if not sol.success:
         raise RuntimeError(f"truth integration failed: {sol.message}")
     y = sol.y.T * scale

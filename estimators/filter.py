@@ -128,6 +128,8 @@ class KalmanFilterBase:
     """
 
     kind = "base"
+    #: covariance square roots taken with a floor (the UKF's sigma points, :func:`estimators.ukf.scaled_cholesky`); 0 for the EKF
+    regularizations = 0
 
     def __init__(self, model, x0, P0, Q, *, gate_confidence: float | None = 0.99, consider=()):
         self.model = model

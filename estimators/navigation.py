@@ -20,6 +20,7 @@ import numpy as np
 
 from estimators.batch import BatchFitError, MeasurementHistory, posterior
 from estimators.ekf import ExtendedKalmanFilter
+from estimators.filter import NonFiniteError
 from estimators.gates import GateDecision
 from estimators.measurement import PoseNoise
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, rate_proxy
@@ -38,7 +39,7 @@ def make_filter(name: str, model, x0, P0, Q, **kwargs):
     try:
         cls = FILTERS[name]
     except KeyError:
-        raise ValueError(f"unknown filter {name!r}; expected one of {sorted(FILTERS)}") from None
+        raise ValueError(f"unknown filter {name!r}: expected one of {sorted(FILTERS)}") from None
     return cls(model, x0, P0, Q, **kwargs)
 
 
@@ -69,6 +70,10 @@ class NavigationRun:
     #: times (s since ``t[0]``) of the re-linearisations whose fit passed only with the spin prior's rate made flat:
     #: the prior contradicts the measurements (:func:`estimators.batch.posterior`, ``suspect``)
     prior_contradicted: tuple[float, ...] = ()
+    #: UKF: sigma-point draws whose covariance had no Cholesky factor and was floored (:func:`estimators.ukf.scaled_cholesky`)
+    regularizations: int = 0
+    #: (N,) seconds per step by ``run_navigation``'s ``clock`` (predict, updates, re-linearisation; NaN at step 0), or None
+    step_s: np.ndarray | None = None
 
 
 def run_navigation(
@@ -90,6 +95,7 @@ def run_navigation(
     proxy: str | None = None,
     R_w: float = R_OMEGA_PROXY,
     reacquire_window: int | None = 5,
+    clock=None,
     **filter_kwargs,
 ) -> NavigationRun:
     """Filter the pose measurements ``(t_meas, q_meas (M,4), r_meas (M,3))`` on the grid ``t`` (N,).
@@ -107,6 +113,8 @@ def run_navigation(
     source whose innovations lie on a line, the filter is re-acquired from
     them (:mod:`estimators.reacquisition`); ``None`` turns this off (the
     paper's filters, which a long blackout can lock out for good).
+    ``clock``: a callable returning seconds (e.g. ``time.process_time``) read around every
+    step; the differences are ``NavigationRun.step_s`` (what ``benchmarks/bench_realtime.py`` plots).
     """
     t, servicer, tau = _check_grid(t, servicer)
     if proxy is not None and proxy not in PROXY_MODES:
@@ -128,7 +136,10 @@ def run_navigation(
     xs[0], Ps[0] = filt.x, filt.P
     consider = filt.consider
     relin = _Relinearization(model, servicer, tau, tuning, filt, consider, spin_prior=prior is not None) if tuning.relinearize_s > 0 else None
+    tick = clock or _no_clock
+    step_s = np.full(n, np.nan)
     for k in range(1, n):
+        c0 = tick()
         if tuning.settling_s > 0:  # the tuning's settling and release phases (estimators.tuning)
             _set_phase(filt, tuning, tau, t[k - 1] - t[0], consider, relin, model, servicer[k - 1])
         filt.predict(servicer[k - 1], tau)
@@ -155,12 +166,18 @@ def run_navigation(
         if relin is not None:
             relin.step(filt, k, t[k] - t[0], parts, decisions)
         xs[k], Ps[k] = filt.x, filt.P
+        step_s[k] = tick() - c0
     return NavigationRun(
         filter=filter_name, t=t, x=xs, P=Ps, nis=nis, accepted=accepted, proxy_used=proxy_used, pose_noise=pose_noise,
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
         relinearizations=tuple(relin.events) if relin is not None else (),
         prior_contradicted=tuple(relin.prior_contradicted) if relin is not None else (),
+        regularizations=filt.regularizations, step_s=step_s if clock is not None else None,
     )
+
+
+def _no_clock() -> float:
+    return 0.0
 
 
 class _Relinearization:
@@ -290,6 +307,8 @@ def weak_inertia_direction(model: RelativeProcessModel, x, servicer_state, tau: 
     the well-observed one converge first.
     """
     _, F = model.propagate_with_jacobian(np.asarray(x, dtype=float), servicer_state, tau)
+    if not np.all(np.isfinite(F[DW_ST_T, DK])):  # a diverged estimate (SC4 EKF at 5 s: "SVD did not converge")
+        raise NonFiniteError(f"the step's Jacobian dω/dk at the estimate is not finite over dt={tau}; the filter has diverged")
     v = np.linalg.svd(F[DW_ST_T, DK])[2][-1]
     u = np.zeros((1, N_ERROR))
     u[0, DK] = v

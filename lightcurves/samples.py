@@ -27,24 +27,25 @@ def check_samples(t, y, dy=None, *, name: str = "mag", min_samples: int = MIN_SA
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     if t.ndim != 1 or y.ndim != 1 or t.size != y.size:
-        raise BadSeries(f"time and {name} must be 1-D arrays of equal length, got shapes {t.shape} and {y.shape}")
+        raise BadSeries(f"time and {name} of shapes {t.shape} and {y.shape}: expected 1-D arrays of equal length")
     if not np.all(np.isfinite(t)):
-        raise BadSeries(f"time has {np.count_nonzero(~np.isfinite(t))} NaN/inf value(s); expected finite times")
+        raise BadSeries(f"time with {np.count_nonzero(~np.isfinite(t))} NaN/inf value(s): expected finite times")
     if not np.all(np.isfinite(y)):
-        raise BadSeries(f"{name} has {np.count_nonzero(~np.isfinite(y))} NaN/inf value(s); expected finite values")
+        raise BadSeries(f"{name} with {np.count_nonzero(~np.isfinite(y))} NaN/inf value(s): expected finite values")
     if t.size < min_samples:
-        raise BadSeries(f"{name} has {t.size} samples; at least {min_samples} are needed")
+        raise BadSeries(f"{name} of {t.size} sample(s): expected at least {min_samples} samples")
     d = np.diff(t)
     if np.any(d == 0):
         k = int(np.flatnonzero(d == 0)[0])
-        raise BadSeries(f"time has duplicate values (samples {k} and {k + 1} at t = {t[k]!r}); expected strictly increasing times")
+        raise BadSeries(f"time {float(t[k]):g} at samples {k} and {k + 1}, a duplicate: expected strictly increasing times")
     if np.any(d < 0):
         k = int(np.flatnonzero(d < 0)[0])
-        raise BadSeries(f"time is not increasing (sample {k + 1} at {t[k + 1]!r} comes before sample {k} at {t[k]!r}); expected strictly increasing times")
+        raise BadSeries(f"time {float(t[k + 1]):g} (sample {k + 1}) after {float(t[k]):g} (sample {k}), not increasing: expected strictly increasing times")
     if np.ptp(y) <= 1e-12 * max(1.0, np.abs(y).max()):
-        raise BadSeries(f"{name} has zero variance (constant {y[0]!r}); there is nothing to analyse")
+        raise BadSeries(f"{name} constant at {float(y[0]):g} over all {y.size} samples (zero variance): expected a varying {name}")
     if dy is not None:
         dy = np.broadcast_to(np.asarray(dy, dtype=float), y.shape).copy()
         if not np.all(np.isfinite(dy) & (dy > 0)):
-            raise BadSeries(f"{name}_err must be finite and > 0 for every sample")
+            k = int(np.flatnonzero(~(np.isfinite(dy) & (dy > 0)))[0])
+            raise BadSeries(f"{name}_err {float(dy[k]):g} (sample {k}): expected finite values > 0 for every sample")
     return t, y, dy

@@ -42,6 +42,7 @@ import pandas as pd
 from estimators.navigation import FILTERS
 from lightcurves.targets import TARGETS
 from studies.catalog.figures import plot_spectrum, pyplot, save_png
+from studies.catalog.filter_common import TRUTH_FIELD
 from studies.sim.chain import ARM_LABELS, arm_tuning, flat_metrics, navigate_arm, record_lightcurve, record_run, render_prior
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.sim.metrics import GROUPS
@@ -78,24 +79,25 @@ FIELDS: dict[str, Field] = {
     "gate_start_s": Field("float", "Gates test measurements from this time on, s.", ge=0, default=10.0),
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write lightcurve.rrd and one recording per filter and arm in every run.", default=True),
+    "truth": TRUTH_FIELD,
 }
 
 _RUN_FIELDS = ("filters", "target", "nights", "night_spacing_days",
                "observation_duration_s", "cadence_s", "render_resolution_px", "render_spp", "false_alarm_level",
-               "dt_s", "gate_confidence", "gate_start_s", "record")
+               "dt_s", "gate_confidence", "gate_start_s", "record", "truth")
 
 
 def check(params: dict) -> None:
     """Cross-field rules: samples in the light curve, dt within the runs, the fault window within the proxy run."""
     if params["observation_duration_s"] / params["cadence_s"] < 20:
-        raise ConfigError(f"field 'cadence_s' must give at least 20 light-curve samples over observation_duration_s = "
-                          f"{params['observation_duration_s']} s, got {params['cadence_s']}")
+        raise ConfigError(f"cadence_s {params['cadence_s']}: expected at least 20 light-curve samples over observation_duration_s = "
+                          f"{params['observation_duration_s']} s")
     for e in params["experiments"]:
         if params["dt_s"] > params[f"{e}_duration_s"]:
-            raise ConfigError(f"field 'dt_s' must not exceed {e}_duration_s = {params[f'{e}_duration_s']} s, got {params['dt_s']}")
+            raise ConfigError(f"dt_s {params['dt_s']}: expected at most {e}_duration_s = {params[f'{e}_duration_s']} s")
     if "proxy" in params["experiments"] and params["fault_start_s"] + params["fault_duration_s"] + params["settling_s"] >= params["proxy_duration_s"]:
-        raise ConfigError(f"field 'proxy_duration_s' must exceed fault_start_s + fault_duration_s + settling_s = "
-                          f"{params['fault_start_s'] + params['fault_duration_s'] + params['settling_s']} s, got {params['proxy_duration_s']}")
+        raise ConfigError(f"proxy_duration_s {params['proxy_duration_s']}: expected more than fault_start_s + fault_duration_s + settling_s = "
+                          f"{params['fault_start_s'] + params['fault_duration_s'] + params['settling_s']} s")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:
@@ -138,7 +140,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         faults = ((p["fault_start_s"], p["fault_duration_s"]),)
         rmse_from = p["fault_start_s"] + p["fault_duration_s"] + p["settling_s"]
     arms = ("none", "tuning", p["experiment"]) if rendered.spin is not None else ("none",)
-    truth = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    truth = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     row["n_steps"] = len(truth.t)
     for f in p["filters"]:
         for arm in arms:

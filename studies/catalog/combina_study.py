@@ -37,6 +37,7 @@ import pandas as pd
 from estimators.combina.symmetry import SymmetryDetector
 from studies.sim.combina import COMPONENT_SI, FILTER_COMPONENTS, SOURCES, COMBINA_TARGETS, TU, CombinaConfig, component_errors, run_combina, combina_metrics
 from studies.recording.combina import write_recording
+from studies.catalog.filter_common import TRUTH_FIELD
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path, write_table
 from studies.engine.stats import bootstrap_interval, describe, proportion_interval
@@ -53,9 +54,10 @@ FIELDS: dict[str, Field] = {
     "measurements": Field("str", "Measurement source: simulated (BCPD-like noisy poses) or rendered (Mitsuba stereo + BCPD).", choices=SOURCES),
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd for every run.", default=True),
+    "truth": TRUTH_FIELD,
 }
 
-_RUN_FIELDS = ("duration_TU", "measurement_period_s", "measurements", "record")
+_RUN_FIELDS = ("duration_TU", "measurement_period_s", "measurements", "record", "truth")
 #: Components per target, in the order of the paper's figures.
 COMPONENTS = {"asymmetric": FILTER_COMPONENTS["translation"] + FILTER_COMPONENTS["attitude"],
               "symmetric": FILTER_COMPONENTS["translation"] + FILTER_COMPONENTS["axisymmetric"]}
@@ -65,8 +67,8 @@ UNIT_LABEL = {"r": "m", "v": "m/s", "sigma": "MRP", "w": "rad/s", "k": "-", "phi
 def check(params: dict) -> None:
     """At least two measurements per run."""
     if params["duration_TU"] * TU < 2 * params["measurement_period_s"]:
-        raise ConfigError(f"field 'duration_TU' must cover at least two measurement periods "
-                          f"({2 * params['measurement_period_s']:g} s), got {params['duration_TU']} TU")
+        raise ConfigError(f"duration_TU {params['duration_TU']}: expected at least two measurement periods "
+                          f"({2 * params['measurement_period_s']:g} s)")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:
@@ -90,7 +92,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     """One closed-loop run; metrics flattened per component, ``errors.parquet``, ``symmetry.parquet`` and ``run.rrd``."""
     p = spec.params
     cfg = CombinaConfig(target=p["target"], measurements=p["measurements"], duration_tu=p["duration_TU"],
-                        rate_hz=1.0 / p["measurement_period_s"], seed=spec.seed)
+                        rate_hz=1.0 / p["measurement_period_s"], seed=spec.seed, truth=p["truth"])
     run = run_combina(cfg)
     m = combina_metrics(run)
     write_table(workdir / "errors.parquet", errors_frame(run))

@@ -37,6 +37,7 @@ from estimators.attitude import attitude_angle, mrp_to_quat, random_quaternion
 from estimators.combina.attitude import physical_k
 from studies.sim.combina import TU, CombinaConfig, filter_nees, run_combina, simulate_lvlh_truth
 from studies.recording.combina import write_recording
+from studies.catalog.filter_common import TRUTH_FIELD
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.engine.stats import proportion_interval
@@ -60,19 +61,20 @@ FIELDS: dict[str, Field] = {
                             default="joint", choices=("joint", "per_epoch")),
     "confidence": Field("float", "Confidence level of the Wilson intervals.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd for every run that did not break down.", default=False),
+    "truth": TRUTH_FIELD,
 }
 
-_RUN_FIELDS = ("measurement_rate_hz", "horizon_orbits", "k_range", "k_physical", "n_last", "converged_confidence", "converged_rule", "record")
+_RUN_FIELDS = ("measurement_rate_hz", "horizon_orbits", "k_range", "k_physical", "n_last", "converged_confidence", "converged_rule", "record", "truth")
 
 
 def check(params: dict) -> None:
     """``k_range`` is ``[low, high]`` with ``low < high``; a run has at least ``n_last`` measurements."""
     k = params["k_range"]
     if len(k) != 2 or not k[0] < k[1]:
-        raise ConfigError(f"field 'k_range' must be [low, high] with low < high, got {k}")
+        raise ConfigError(f"k_range {k}: expected [low, high] with low < high")
     n = int(np.floor(params["horizon_orbits"] * 2 * np.pi * TU * params["measurement_rate_hz"]))
     if n < params["n_last"]:
-        raise ConfigError(f"field 'horizon_orbits' gives {n} measurements per run, fewer than n_last = {params['n_last']}")
+        raise ConfigError(f"horizon_orbits {params['horizon_orbits']} ({n} measurements per run): expected at least n_last = {params['n_last']} measurements")
 
 
 def n_runs_at(config: StudyConfig, rate_rad_s: float) -> int:
@@ -117,7 +119,7 @@ def draw_inertia_ratios(rng: np.random.Generator, k_range, physical: bool) -> np
         k = rng.uniform(*k_range, size=2)
         if not physical or physical_k(k):
             return k
-    raise ConfigError(f"field 'k_range' {list(k_range)}: no physical inertia ratios in 1000 draws")
+    raise ConfigError(f"k_range {list(k_range)}: no physical inertia ratios in 1000 draws: expected a range holding physical inertia ratios")
 
 
 def execute(spec: RunSpec, workdir: Path) -> dict:
@@ -129,10 +131,10 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     direction = rng.normal(size=3)
     w_T0 = p["rate_level_rad_s"] * direction / np.linalg.norm(direction)
     cfg = CombinaConfig(target="asymmetric", duration_tu=p["horizon_orbits"] * 2 * np.pi, rate_hz=p["measurement_rate_hz"],
-                        seed=int(rng.integers(2**62)))
+                        seed=int(rng.integers(2**62)), truth=p["truth"])
     cfg.validate()  # a bad configuration is an error, not a divergence
     t = cfg.epochs_s()
-    truth = simulate_lvlh_truth("asymmetric", t[-1], t[1] - t[0], k=k, q_IT0=q_IT0, w_T0_rad_s=w_T0)
+    truth = simulate_lvlh_truth("asymmetric", t[-1], t[1] - t[0], k=k, q_IT0=q_IT0, w_T0_rad_s=w_T0, physics=cfg.truth)
     out = {"k1": float(k[0]), "k2": float(k[1]), "rate_rad_s": float(np.linalg.norm(w_T0)),
            "rotation_per_measurement_deg": float(np.rad2deg(np.linalg.norm(w_T0) / cfg.rate_hz)), "n_steps": int(t.size)}
     try:

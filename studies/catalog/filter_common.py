@@ -11,13 +11,19 @@ import numpy as np
 import pandas as pd
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
+from estimators.perturbations import TRUTH_PHYSICS
 from estimators.prior import BodyRatePrior
 from studies.catalog.figures import pyplot, save_png
 from studies.engine.config import ConfigError, Field
 
 
 #: Config fields common to the filter studies (thresholds of §6, pose noise of §4.4, initial guess, statistics).
+#: The truth's physics (every study that simulates a truth): what the filters model, or with unmodelled perturbations.
+TRUTH_FIELD = Field("str", "Truth physics: torque-free (Kepler, torque-free: what the filters model) or perturbed (gravity gradient, J2, drag, "
+                    "nutation damping; estimators.perturbations).", choices=TRUTH_PHYSICS, default="torque-free")
+
 COMMON_FIELDS: dict[str, Field] = {
+    "truth": TRUTH_FIELD,
     "threshold_att_deg": Field("float", "Convergence threshold of the attitude error, deg.", gt=0, default=2.0),
     "threshold_rate_deg_s": Field("float", "Convergence threshold of the rate error, deg/s.", gt=0, default=2.0),
     "threshold_pos_m": Field("float", "Convergence threshold of the position error, m.", gt=0, default=1.0),
@@ -43,7 +49,7 @@ def check_common(params: dict) -> None:
     """``inertia_guess_range`` is ``[lo, hi]`` with ``lo <= hi``."""
     lo_hi = params["inertia_guess_range"]
     if len(lo_hi) != 2 or lo_hi[0] > lo_hi[1]:
-        raise ConfigError(f"field 'inertia_guess_range' must be [lo, hi] with 0 < lo <= hi, got {lo_hi}")
+        raise ConfigError(f"inertia_guess_range {lo_hi}: expected [lo, hi] with 0 < lo <= hi")
 
 
 def pose_noise(params) -> PoseNoise:

@@ -60,7 +60,7 @@ ARM_LABEL = {False: "", True: " +prior"}
 def check(params: dict) -> None:
     """``dt_s <= duration_s``; the inertia guess range is ordered."""
     if params["dt_s"] > params["duration_s"] / 2:
-        raise ConfigError(f"field 'dt_s' must be at most half of duration_s = {params['duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most half of duration_s = {params['duration_s']} s")
     check_common(params)
 
 
@@ -74,7 +74,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     w_true = tr.target[0, W_B]
     prior = draw_prior(w_true, p["prior_rate_error"], p["prior_error_direction"], rng)  # drawn in both arms (paired streams)
     setup = NavigationSetup(

@@ -72,9 +72,9 @@ def check(params: dict) -> None:
     """The fault and the settling time end before the run does; ``dt_s`` fits the fault."""
     end = params["fault_start_s"] + params["fault_duration_s"] + params["settling_s"]
     if end >= params["duration_s"]:
-        raise ConfigError(f"field 'duration_s' must exceed fault_start_s + fault_duration_s + settling_s = {end:g} s, got {params['duration_s']}")
+        raise ConfigError(f"duration_s {params['duration_s']}: expected more than fault_start_s + fault_duration_s + settling_s = {end:g} s")
     if params["dt_s"] > params["fault_duration_s"]:
-        raise ConfigError(f"field 'dt_s' must not exceed fault_duration_s = {params['fault_duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most fault_duration_s = {params['fault_duration_s']} s")
     check_common(params)
 
 
@@ -92,7 +92,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     prior = draw_prior(tr.target[0, W_B], p["prior_rate_error"], p["prior_error_direction"], rng)
     scale = p["fault_sigma_scale"]
     setup = NavigationSetup(

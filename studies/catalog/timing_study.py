@@ -59,9 +59,9 @@ def check(params: dict) -> None:
     """Percentiles increase strictly; each seed times at least one iteration."""
     p = params["percentiles"]
     if any(b <= a for a, b in zip(p, p[1:])):
-        raise ConfigError(f"field 'percentiles' must increase strictly, got {p}")
+        raise ConfigError(f"percentiles {p}: expected strictly increasing values")
     if params["n_iterations"] < params["n_seeds"]:
-        raise ConfigError(f"field 'n_iterations' must be at least n_seeds = {params['n_seeds']}, got {params['n_iterations']}")
+        raise ConfigError(f"n_iterations {params['n_iterations']}: expected at least n_seeds = {params['n_seeds']}")
 
 
 def iterations_per_seed(n_iterations: int, n_seeds: int) -> list[int]:

@@ -35,6 +35,7 @@ from estimators.attitude import attitude_angle, random_quaternion
 from estimators.dynamics import angular_momentum_norm, propagate_relative, rotational_energy
 from estimators.state import Q_TS, R_I, R_ST_T, W_B, W_ST_T
 from studies.catalog.figures import pyplot, save_png
+from studies.catalog.filter_common import TRUTH_FIELD
 from studies.recording.blueprint import run_blueprint, send_estimate, send_truth
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.recording.writer import recording
@@ -58,19 +59,20 @@ FIELDS: dict[str, Field] = {
     "position_jitter_m": Field("float", "Std of the Gaussian offset of the initial LVLH position, m.", ge=0, default=5.0),
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd for every run.", default=True),
+    "truth": TRUTH_FIELD,
 }
 
 #: The per-run parameters (everything but the summary-only fields).
-_RUN_FIELDS = ("duration_s", "dt_s", "rk4_dt_s", "rk4_tolerance_m", "random_attitude", "position_jitter_m", "record")
+_RUN_FIELDS = ("duration_s", "dt_s", "rk4_dt_s", "rk4_tolerance_m", "random_attitude", "position_jitter_m", "record", "truth")
 
 
 def check(params: dict) -> None:
     """Cross-field rules: ``rk4_dt_s`` divides ``dt_s`` and ``dt_s <= duration_s``."""
     ratio = params["dt_s"] / params["rk4_dt_s"]
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
-        raise ConfigError(f"field 'rk4_dt_s' must divide dt_s = {params['dt_s']} s into whole steps, got {params['rk4_dt_s']}")
+        raise ConfigError(f"rk4_dt_s {params['rk4_dt_s']}: expected a divisor of dt_s = {params['dt_s']} s (whole steps)")
     if params["dt_s"] > params["duration_s"]:
-        raise ConfigError(f"field 'dt_s' must not exceed duration_s = {params['duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most duration_s = {params['duration_s']} s")
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:
@@ -95,7 +97,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = perturbed_scenario(p["scenario"], rng, p["random_attitude"], p["position_jitter_m"])
-    truth = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    truth = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     stride = int(round(p["dt_s"] / p["rk4_dt_s"]))
     x_rk4, s_rk4 = propagate_relative(truth.x[0], truth.servicer[0], truth.J_S_diag, p["rk4_dt_s"], (len(truth.t) - 1) * stride, stride=stride)
     pos_err = np.linalg.norm(x_rk4[:, R_ST_T] - truth.x[:, R_ST_T], axis=1)

@@ -73,13 +73,13 @@ def check(params: dict) -> None:
     """Distinct blocks and exponents; the general scenario is among the scenarios; a step fits the run."""
     for name in ("q_blocks", "q_exponents", "scenarios", "filters"):
         if len(set(params[name])) != len(params[name]):
-            raise ConfigError(f"field {name!r} must not repeat an item, got {params[name]}")
+            raise ConfigError(f"{name} {params[name]}: expected no repeated item")
     if params["general_scenario"] not in params["scenarios"]:
-        raise ConfigError(f"field 'general_scenario' must be one of scenarios {params['scenarios']}, got {params['general_scenario']!r}")
+        raise ConfigError(f"general_scenario {params['general_scenario']!r}: expected one of scenarios {params['scenarios']}")
     if not all(-20 <= e <= 5 for e in params["q_exponents"]):
-        raise ConfigError(f"field 'q_exponents' must be integers in [-20, 5], got {params['q_exponents']}")
+        raise ConfigError(f"q_exponents {params['q_exponents']}: expected integers in [-20, 5]")
     if params["dt_s"] > params["duration_s"] / 2:
-        raise ConfigError(f"field 'dt_s' must be at most half of duration_s = {params['duration_s']} s, got {params['dt_s']}")
+        raise ConfigError(f"dt_s {params['dt_s']}: expected at most half of duration_s = {params['duration_s']} s")
     check_common(params)
 
 
@@ -128,7 +128,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     p = spec.params
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
-    tr = simulate_truth(sc, p["duration_s"], p["dt_s"])
+    tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     setup = NavigationSetup(p["filter"], grid_tuning(p), pose_noise=pose_noise(p), gate_confidence=p["gate_confidence"],
                             gate_start_s=p["gate_start_s"], consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (),
                             inertia_range=tuple(p["inertia_guess_range"]))

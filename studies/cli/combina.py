@@ -18,7 +18,7 @@ import typer
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
 from studies.recording.combina import states_table, write_recording
-from studies.sim.combina import CombinaConfig, run_combina, combina_metrics
+from studies.sim.combina import MESH_TARGETS, SOURCES, CombinaConfig, run_combina, combina_metrics
 
 #: Most measurement epochs of one run (duration × rate): a bound on the work one command may ask for.
 MAX_EPOCHS = 10**5
@@ -39,16 +39,38 @@ def run_command(cfg: CombinaConfig, out: Path) -> dict:
     return metrics
 
 
+#: ``--target`` names a body, as in ``lightcurve render`` and ``perception frames``: body -> the CoMBiNa target it is.
+TARGET_OF_BODY = {body: target for target, body in MESH_TARGETS.items()}
+
+
+def _target(param: typer.CallbackParam, body: str) -> str:
+    """``--target BODY`` -> the CoMBiNa target (``asymmetric``/``symmetric``); the names before issue 30 refused with the new one."""
+    v.check_text("--target", body)
+    if body in MESH_TARGETS:
+        v.fail("--target", body, f"a body: {' or '.join(TARGET_OF_BODY)} (renamed: --target {body} is now --target {MESH_TARGETS[body]})")
+    if body not in TARGET_OF_BODY:
+        v.fail("--target", body, f"a body: {' or '.join(TARGET_OF_BODY)}")
+    return TARGET_OF_BODY[body]
+
+
+def _old_measurements(param: typer.CallbackParam, value: str | None) -> None:
+    if value is not None:
+        v.fail("--measurements", value, f"--pose-source {'|'.join(SOURCES)} (renamed; --measurements is the pose file of `lcnav run`)")
+
+
 def register(app: typer.Typer) -> None:
     """Add ``combina`` to the ``lcnav`` command line."""
 
     @app.command("combina")
     def combina(
-        target: str = typer.Option("asymmetric", help="asymmetric (box-wing) | symmetric (rocket body)", callback=v.text()),
-        measurements: str = typer.Option("simulated", help="simulated | rendered", callback=v.text()),
+        target: str = typer.Option("box-wing", help="target body: box-wing (asymmetric) | atlas-centaur (axisymmetric rocket body)",
+                                   callback=_target),
+        pose_source: str = typer.Option("simulated", help="where the pose measurements come from: simulated | rendered (stereo frames "
+                                        "through the perception pipeline)", callback=v.text(SOURCES)),
+        measurements: str | None = typer.Option(None, hidden=True, callback=_old_measurements),
         duration_tu: float = typer.Option(2.0, help="duration in time units (TU = 963.65 s), at most 100", callback=v.number(0, 100, lo_open=True, unit="TU")),
         rate_hz: float = typer.Option(0.33, help="measurement rate, Hz (at most 10)", callback=v.number(0, 10, lo_open=True, unit="Hz")),
-        quick: bool = typer.Option(False, help="short run: 0.25 TU simulated; 0.05 TU at 256 px rendered"),
+        quick: bool = typer.Option(False, "--quick", help="short run: 0.25 TU simulated; 0.05 TU at 256 px rendered"),
         seed: int = typer.Option(1, help="random seed", callback=v.seed()),
         prior: str = typer.Option("none", help="spin prior: none | init | proxy", callback=v.text()),
         prior_error: float = typer.Option(0.05, help="relative error of the spin prior", callback=v.number(0, 1, lo_open=True, hi_open=True)),
@@ -56,10 +78,10 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
         """CoMBiNa relative navigation (Maestrini et al. §VI): writes metrics.json, states.parquet, combina.rrd."""
-        cfg = CombinaConfig(target=target, measurements=measurements, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior,
+        cfg = CombinaConfig(target=target, measurements=pose_source, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior,
                             prior_error=prior_error, axis_frame=axis_frame, quick=quick)
         m = run_command(cfg, out)
         c = m["components"]
         summary = ", ".join(f"{k}: {'ok' if v['converged'] else 'not converged'}" for k, v in c.items())
-        typer.echo(f"combina {cfg.target}/{cfg.measurements} seed {cfg.seed}: mode {m['mode']}, "
+        typer.echo(f"combina {MESH_TARGETS[cfg.target]} ({cfg.target})/{cfg.measurements} seed {cfg.seed}: mode {m['mode']}, "
                    f"symmetry detected {m['symmetry_detected']}; {summary}; wrote {out}")

@@ -40,9 +40,9 @@ def _read_metrics(path: Path) -> dict:
     try:
         rec = json.loads(path.read_bytes())
     except (ValueError, RecursionError) as e:
-        raise v.InputError(f"{str(path)!r} is not JSON ({type(e).__name__}); expected the metrics.json lcnav writes") from None
+        raise v.InputError(f"{str(path)!r} is not JSON ({type(e).__name__}): expected the metrics.json lcnav writes") from None
     if not isinstance(rec, dict) or not all(isinstance(rec.get(k, {}), dict) for k in ("params", "metrics")):
-        raise v.InputError(f"{str(path)!r} holds no JSON object with 'params' and 'metrics' objects; expected the metrics.json lcnav writes")
+        raise v.InputError(f"{str(path)!r} holds no JSON object with 'params' and 'metrics' objects: expected the metrics.json lcnav writes")
     return rec
 
 
@@ -64,9 +64,9 @@ def format_study(out_dir: Path) -> str:
     try:
         runs = pd.read_parquet(table)
     except (ValueError, OSError) as e:  # pyarrow: not Parquet / truncated
-        raise v.InputError(f"{str(table)!r} is not a readable Parquet table ({v.plain(str(e), 120)[1:-1]}); expected the runs table of `lcnav study`") from None
+        raise v.InputError(f"{str(table)!r} is not a readable Parquet table ({v.plain(str(e), 120)[1:-1]}): expected the runs table of `lcnav study`") from None
     if "run_id" not in runs.columns:
-        raise v.InputError(f"{str(table)!r} has columns {v.plain(list(map(str, runs.columns)))} without 'run_id'; expected the runs table of `lcnav study`")
+        raise v.InputError(f"{str(table)!r} has columns {v.plain(list(map(str, runs.columns)))} without 'run_id': expected the runs table of `lcnav study`")
     done = is_complete(out_dir)
     state = (f"complete ({done.get('command')}, {done.get('finished_utc')})" if done
              else "INCOMPLETE: no .complete.json (killed or failed; re-run the study on it to resume)")
@@ -106,7 +106,7 @@ def inspect(
     if export is not None:
         table, skipped = export_series(rrds[0], contents)
         if table.shape[1] < 2 or len(table) == 0:
-            raise v.InputError(f"--contents {v.plain(contents)} matches no time series in {str(rrds[0])!r}; expected a pattern naming logged "
+            raise v.InputError(f"--contents {v.plain(contents)} matches no time series in {str(rrds[0])!r}: expected a pattern naming logged "
                                f"entities (see the listing above), e.g. '/truth/**'")
         write_table(export, table)
         typer.echo(f"exported {len(table)} rows x {table.shape[1]} columns to {export}")

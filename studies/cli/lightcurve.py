@@ -122,6 +122,8 @@ def _site(text: str | None):
     if not (abs(lat) <= 90 and -180 <= lon <= 360 and SITE_HEIGHT_M[0] <= height <= SITE_HEIGHT_M[1]):
         v.fail("--site", text, form)
     return EarthLocation.from_geodetic(lon=lon * u.deg, lat=lat * u.deg, height=height * u.m)
+#: Largest light-curve file ``prior`` reads, bytes (10⁵ rows of up to ~300 characters).
+MAX_PRIOR_BYTES = 32 * 2**20
 
 
 def _validate_render(target: str, axis: str, duration: float, cadence: float, albedo: float | None, pole_ra_dec: str | None):
@@ -213,12 +215,27 @@ def render(
     typer.echo(f"lcnav: wrote {out} ({len(sim.lightcurve)} samples, {renderer.variant})" + (f" and {record}" if record is not None else ""), err=True)
 
 
+#: Largest magnitude (and magnitude error) a light curve may hold: brighter than the Sun (-26.7) or fainter than any survey
+#: limit (about 30) is a unit or parsing mistake (a flux, a 1e300), not a magnitude.
+MAX_ABS_MAG = 50.0
+
+
+def _check_prior_input(path: Path, lc) -> None:
+    """A light curve ``prior`` can handle in bounded time: at most :data:`MAX_SAMPLES` samples (about 4 s), magnitudes within ±50."""
+    if len(lc) > MAX_SAMPLES:
+        raise v.InputError(f"{path.name}: {len(lc)} samples: expected at most {MAX_SAMPLES} samples (bin or split a longer light curve)")
+    for name, values in (("mag", lc.mag), ("mag_err", lc.mag_err)):
+        bad = np.flatnonzero(np.abs(values) > MAX_ABS_MAG)  # NaN (no mag_err) compares False
+        if bad.size:
+            raise v.InputError(f"{path.name}: {name} {v.plain(values[bad[0]])} (sample {int(bad[0])}): expected magnitudes within ±{MAX_ABS_MAG:g}")
+
+
 @lightcurve_app.command("prior")
 def prior(
     path: Path = typer.Argument(..., help="light curve: .ecsv from 'render', or a table (.csv, .fits, .vot) with columns time and mag[,mag_err] "
                                 "(or flux[,flux_err]); its time column is ISO 8601 text or numbers in the unit --time-format names (plain "
                                 "numbers without it are read as seconds, and refused where they look like MJD, JD, Unix time or ms)",
-                                callback=v.in_file(LIGHTCURVE_SUFFIXES)),
+                                callback=v.in_file(LIGHTCURVE_SUFFIXES, max_bytes=MAX_PRIOR_BYTES)),
     time_format: str | None = typer.Option(None, help="unit of a numeric time column: seconds or ms (since any origin), mjd, jd (days), unix (s since 1970), "
                                            "... or a text format: isot, iso, fits, yday (astropy Time formats)", callback=v.text()),
     time_scale: str = typer.Option("utc", help="time scale of the file's times: utc, tai, tt, tdb, tcg or tcb", callback=v.text()),
@@ -237,6 +254,7 @@ def prior(
         v.check_text("--time-format", time_format, choices=TIME_FORMATS)
     v.check_text("--time-scale", time_scale, choices=TIME_SCALES)
     lc = read_lightcurve(path, time_format, time_scale=time_scale, columns=_parse_columns(columns))
+    _check_prior_input(path, lc)
     err = lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None
     phase = lc.phase_angle_rad if np.all(np.isfinite(lc.phase_angle_rad)) else None  # a lower bound of the synodic term of the 1-σ
     p = extract_spin_prior(lc.t_s, lc.mag, err, false_alarm_level=false_alarm_level, maxima_per_rotation=maxima_per_rotation,

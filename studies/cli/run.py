@@ -14,6 +14,13 @@ Writes, after everything has run (nothing is written on an error):
   band, the same for each source's NIS (3 dof), gate rejection rates;
 * ``states.parquet`` — per step of the first run: truth, estimate, 3-σ of
   each error state, NIS and gate decisions;
+
+With ``--measurements FILE`` the simulated scenario only gives the filter's time
+grid and the servicer's state: its truth is not the file's, so nothing is scored
+against it. Without ``--truth-file`` no truth-based figure is written or printed
+(no ``true_*`` columns, no NEES, RMSE or convergence time; NIS and gate rates only);
+``--truth-file truth.parquet`` (as ``lcnav simulate`` writes it, holding every
+filter time) is the truth to score against.
 * ``run.rrd`` — the same on the ``sim_time`` timeline in the layout of
   :mod:`studies.recording.blueprint` (``/truth/...``, ``/estimate/<filter>/...`` with
   errors and ±3σ, ``/measurement/<source>/...``, ``/gate/<filter>/<source>/e2``
@@ -22,6 +29,7 @@ Writes, after everything has run (nothing is written on an error):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +41,7 @@ import typer
 
 from estimators.measurement import NOISE_MODELS, PoseNoise
 from estimators.navigation import FILTERS, SOURCES, NavigationRun
+from estimators.perturbations import TRUTH_PHYSICS, get_truth_physics
 from estimators.prior import PROXY_MODES, BodyRatePrior
 from estimators.state import DK, K_STATES, N_ERROR, W_B
 from estimators.tuning import DEFAULT_TUNING, TUNINGS, get_tuning
@@ -74,33 +83,65 @@ def _read_measurements(path: Path, t_span: tuple[float, float]):
             v.check_no_nul(where, path.read_bytes())
             df = pd.read_csv(path)
     except (ValueError, OSError, ImportError) as e:  # pyarrow/pandas parse errors are ValueErrors
-        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}); expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
+        raise v.InputError(f"{where}: not a readable {path.suffix[1:]} table ({e}): expected columns {', '.join(MEASUREMENT_COLUMNS)}") from None
     missing = [c for c in MEASUREMENT_COLUMNS if c not in df.columns]
     if missing:
-        raise v.InputError(f"{where} lacks columns {missing}; expected {', '.join(MEASUREMENT_COLUMNS)}")
+        raise v.InputError(f"{where} lacks columns {missing}: expected {', '.join(MEASUREMENT_COLUMNS)}")
     if len(df) < 2:
-        raise v.InputError(f"{where} holds {len(df)} row(s); expected at least 2 measurements")
+        raise v.InputError(f"{where} holds {len(df)} row(s): expected at least 2 measurements")
     for c in MEASUREMENT_COLUMNS:
         col = df[c]
         if col.dtype.kind not in "fiu":
             bad = next((x for x in col if not (isinstance(x, int | float) or (isinstance(x, str) and v.DECIMAL.match(x)))), col.iloc[0])
-            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}; expected decimal numbers")
+            raise v.InputError(f"{where}: column {c} holds {v.plain(bad)}: expected decimal numbers")
     a = df[MEASUREMENT_COLUMNS].to_numpy(dtype=float)
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
     if bad.size:
-        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell; expected finite measurements")
+        raise v.InputError(f"{where}: row {int(bad[0])} has a NaN, Inf or empty cell: expected finite measurements")
     t = a[:, 0]
     if np.any(np.diff(t) <= 0):
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
-        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}; expected strictly increasing times")
+        raise v.InputError(f"{where}: t_s {t[k + 1]:g} (row {k + 1}) follows {t[k]:g}: expected strictly increasing times")
     if not np.any((t >= t_span[0]) & (t <= t_span[1])):
-        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s; expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
+        raise v.InputError(f"{where}: t_s from {t[0]:g} to {t[-1]:g} s: expected measurements within the run, {t_span[0]:g} to {t_span[1]:g} s")
     q = a[:, 1:5]
     if np.any(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-6):
-        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...; expected unit quaternions")
+        raise v.InputError(f"{where}: q_TS of norm {np.linalg.norm(q, axis=1)[0]:g}...: expected unit quaternions")
     if np.any(np.abs(a[:, 5:8]) > 1e7):
-        raise v.InputError(f"{where}: a position beyond 1e7 m; expected relative positions within 10000 km")
+        raise v.InputError(f"{where}: a position beyond 1e7 m: expected relative positions within 10000 km")
     return t, q, a[:, 5:8]
+
+
+def _read_truth_file(path: Path, t: np.ndarray, scenario: str) -> np.ndarray:
+    """The relative state ``(len(t), 15)`` of a ``lcnav simulate`` truth table at the filter's times ``t`` (s).
+
+    The file must hold a row within 1 µs of every filter time (it may be sampled more finely)
+    and, when it records its scenario, be of ``scenario``.
+    """
+    v.check_in_file("--truth-file", path, (".parquet",))
+    where = f"--truth-file {str(path)!r}"
+    try:
+        df = pd.read_parquet(path)
+    except (ValueError, OSError, ImportError) as e:
+        raise v.InputError(f"{where}: not a readable parquet table ({e}); expected the truth.parquet of `lcnav simulate`") from None
+    columns = ["t_s", *RELATIVE_COLUMNS]
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise v.InputError(f"{where} lacks columns {missing[:4]}; expected the truth.parquet of `lcnav simulate` (t_s and the relative state)")
+    recorded = df.attrs.get("scenario")
+    if recorded is not None and recorded != scenario:
+        v.fail(where + ": scenario", recorded, f"the run's --scenario {scenario}")
+    a = df[columns].to_numpy(dtype=float)
+    if len(a) < 2 or not np.all(np.isfinite(a)) or np.any(np.diff(a[:, 0]) <= 0):
+        v.fail(where, f"{len(a)} rows", "at least 2 rows of finite numbers at strictly increasing t_s")
+    t_file = a[:, 0]
+    i = np.clip(np.searchsorted(t_file, t), 1, len(t_file) - 1)
+    i = np.where(np.abs(t_file[i - 1] - t) < np.abs(t_file[i] - t), i - 1, i)
+    if np.any(np.abs(t_file[i] - t) > 1e-6):
+        dt = float(t[1] - t[0])
+        v.fail(f"{where}: t_s", f"{t_file[0]:g} to {t_file[-1]:g} s every {np.median(np.diff(t_file)):g} s",
+               f"a row at every filter time 0, {dt:g}, ..., {t[-1]:g} s (lcnav simulate with --duration {t[-1]:g} and a --dt dividing {dt:g})")
+    return a[i, 1:]
 
 
 def _read_prior_json(path: Path, axis: str):
@@ -112,9 +153,9 @@ def _read_prior_json(path: Path, axis: str):
     try:
         d = json.loads(data)
     except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
-        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}); expected an object from `lcnav lightcurve prior --json`") from None
+        raise v.InputError(f"{where}: not JSON ({type(e).__name__}: {str(e)[:120]}): expected an object from `lcnav lightcurve prior --json`") from None
     if not isinstance(d, dict):
-        raise v.InputError(f"{where} holds a JSON {type(d).__name__}; expected an object with rate_rad_s and rate_sigma_rad_s")
+        raise v.InputError(f"{where} holds a JSON {type(d).__name__}: expected an object with rate_rad_s and rate_sigma_rad_s")
     if d.get("rate_rad_s") is None:
         raise v.InputError(f"prior without a rate: {where} has no rate_rad_s (no significant period in the light curve)")
     max_rate = np.radians(MAX_RATE_DEG_S)
@@ -131,9 +172,10 @@ def _num(v: float):
     return None if not np.isfinite(v) else float(v)
 
 
-def _states_table(tr: Truth, run: NavigationRun) -> pd.DataFrame:
+def _states_table(tr: Truth, run: NavigationRun, scored: bool) -> pd.DataFrame:
     cols = {"t_s": tr.t}
-    cols.update({f"true_{c}": v for c, v in zip(RELATIVE_COLUMNS, tr.x.T)})
+    if scored:
+        cols.update({f"true_{c}": v for c, v in zip(RELATIVE_COLUMNS, tr.x.T)})
     cols.update({f"est_{c}": v for c, v in zip(RELATIVE_COLUMNS, run.x.T)})
     sig = 3.0 * np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
     cols.update({f"sigma3_{c}": v for c, v in zip(ERROR_NAMES, sig.T)})
@@ -178,15 +220,21 @@ def run(
     reacquire_window: int = typer.Option(5, help="Re-acquire a source after this many rejections in a row that lie on a line (0: never; the paper's filters).",
                                          callback=v.count(0, 10**4)),
     measurements: Optional[Path] = typer.Option(None,
-                                                help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating.",
+                                                help=f"Use these measurements (Parquet/CSV with {', '.join(MEASUREMENT_COLUMNS)}) instead of simulating; "
+                                                "scored against --truth-file only (else NIS and gate rates only).",
                                                 callback=v.path_text()),
-    out: Optional[Path] = typer.Option(None, help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
+    truth_file: Optional[Path] = typer.Option(None, help="With --measurements: the truth to score against (truth.parquet of `lcnav simulate`, "
+                                              "a row at every filter time).", callback=v.path_text()),
+    truth: str = typer.Option("torque-free", help="Truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
+                              "J2, drag, nutation damping; recorded in metrics.json).", callback=v.choice(TRUTH_PHYSICS)),
+    out: Path = typer.Option(..., help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
     setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
-                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements, out=out)
+                   gate_confidence=gate_confidence, gate_start=gate_start, reacquire_window=reacquire_window, measurements=measurements,
+                   truth_file=truth_file, truth=truth)
     results = _monte_carlo(setup)
     metrics = _run_metrics(setup, results)
     metrics["prior_contradicted_s"] = list(results[0][0].prior_contradicted)
@@ -195,8 +243,8 @@ def run(
     first, meas0, _ = results[0]
     tr = setup.truth
     with output_folder(out, "run") as stage:
-        write_table(stage / "states.parquet", _states_table(tr, first))
-        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}")
+        write_table(stage / "states.parquet", _states_table(tr, first, setup.scored))
+        record_navigation(stage / "run.rrd", tr, first, meas0, recording_id=f"run-{tr.scenario.name}-{filter_}-seed{seed}", with_truth=setup.scored)
         write_json(stage / "metrics.json", metrics)
     for line in summary_lines(metrics):
         typer.echo(line)
@@ -207,23 +255,24 @@ def run(
 class RunSetup:
     """What ``lcnav run`` runs, validated: the truth, one run's navigation set-up, the measurements, the Monte-Carlo runs."""
 
-    truth: Truth
+    truth: Truth  #: the filter's times and servicer state; its ``x`` is what the run is scored against when ``scored``
     nav: NavigationSetup  #: the filter and its tuning, the prior, the measurements' noise and faults, the gates
     meas: object  #: measurements read from --measurements, or None to simulate them
     runs: int
     seed: int
     config: dict  #: the options as metrics.json records them
+    scored: bool = True  #: whether ``truth.x`` is the truth of the measurements (simulated, or from --truth-file)
 
 
 def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyRatePrior | None:
     if prior_json is not None and prior_rate_deg_s is not None:
-        raise v.InputError("--prior-json and --prior-rate-deg-s: both given; expected the prior as one of them")
+        raise v.InputError("--prior-json and --prior-rate-deg-s: both given: expected the prior as one of them")
     if prior_json is not None:
         return _read_prior_json(prior_json, prior_axis)
     if prior_rate_deg_s is None:
         return None
     if not prior_rate_deg_s.strip():
-        raise v.InputError("prior without a rate: --prior-rate-deg-s ''; expected 'wx,wy,wz' in deg/s")
+        raise v.InputError("prior without a rate: --prior-rate-deg-s '': expected 'wx,wy,wz' in deg/s")
     w = np.radians(_floats(prior_rate_deg_s, 3, "--prior-rate-deg-s (prior rate)", max_abs=MAX_RATE_DEG_S))
     return BodyRatePrior(w, np.full(3, prior_error * max(float(np.linalg.norm(w)), 1e-6)), source="--prior-rate-deg-s")
 
@@ -247,7 +296,8 @@ def _parse_p0(p0_diag: str | None) -> np.ndarray | None:
 
 
 def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_deg_s, prior_json, prior_axis, proxy_mode, tuning, p0_diag,
-           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, out) -> RunSetup:
+           fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, truth_file,
+           truth) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
@@ -255,13 +305,18 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     if reacquire_window != 0 and reacquire_window < 3:
         v.fail("--reacquire-window", reacquire_window, "0 (off) or at least 3 measurements")
     pose_noise = PoseNoise(sigma_q_rad, sigma_r_m, noise)
-    if out is None:
-        raise v.InputError("--out: missing; expected the output folder for metrics.json, states.parquet and run.rrd")
     spin = _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error)
     faults = _parse_faults(fault)
     P0 = _parse_p0(p0_diag)
     meas = _read_measurements(measurements, (0.0, duration)) if measurements is not None else None
-    tr = simulate_truth(sc, duration, dt)
+    if truth_file is not None and meas is None:
+        v.fail("--truth-file", str(truth_file), "it with --measurements (a simulated run is scored against its own truth)")
+    if meas is not None and spin is None and prior != "none":
+        v.fail("--prior", prior, "with --measurements, the prior's rate from --prior-json or --prior-rate-deg-s (the simulated truth is not the file's)")
+    physics = get_truth_physics(truth)
+    tr = simulate_truth(sc, duration, dt, physics)
+    if truth_file is not None:
+        tr = dataclasses.replace(tr, x=_read_truth_file(truth_file, tr.t, sc.name))
     if spin is None and prior != "none":
         spin = BodyRatePrior.from_truth(tr.target[0, W_B], prior_error)
     tuning_name = tuning or DEFAULT_TUNING
@@ -270,10 +325,12 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
               "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
               "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,
-              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist()}
+              "reacquire_window": reacquire_window or None, "prior_w_T_T_rad_s": None if spin is None else spin.w_T_T_rad_s.tolist(),
+              "truth": physics.name, "truth_physics": physics.as_dict(),
+              "scored_against": "simulated" if meas is None else (None if truth_file is None else str(truth_file))}
     nav = NavigationSetup(filter_, tun, P0=P0, prior=spin, prior_use=prior, proxy_mode=proxy_mode, faults=faults, pose_noise=pose_noise,
                           gate_confidence=gate_confidence or None, gate_start_s=gate_start, consider=consider, reacquire_window=reacquire_window or None)
-    return RunSetup(tr, nav, meas, runs, seed, config)
+    return RunSetup(tr, nav, meas, runs, seed, config, scored=meas is None or truth_file is not None)
 
 
 def _warn_prior_contradicted(results: list) -> None:
@@ -288,13 +345,17 @@ def _warn_prior_contradicted(results: list) -> None:
 
 
 def _monte_carlo(setup: RunSetup) -> list:
-    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i``."""
+    """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar when stderr is a terminal)."""
+    from tqdm import tqdm
+
     results = []
     tr = setup.truth
-    for i in range(setup.runs):
-        rng = np.random.default_rng(setup.seed + i)
-        run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
-        results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x)))
+    with tqdm(total=setup.runs, desc="lcnav run", unit="run", leave=False, disable=None) as bar:
+        for i in range(setup.runs):
+            rng = np.random.default_rng(setup.seed + i)
+            run_i, meas_i = navigate(tr, setup.nav, rng, meas=setup.meas)
+            results.append((run_i, meas_i, evaluate(tr.t, run_i.x, run_i.P, tr.x) if setup.scored else None))
+            bar.update(1)
     return results
 
 
@@ -303,23 +364,36 @@ def _mean_over_runs(results, g: str, key: str):
     return _num(float(np.nanmean(values)) if any(np.isfinite(values)) else float("nan"))
 
 
-def _run_metrics(setup: RunSetup, results: list) -> dict:
-    """metrics.json: the first run's §6 metrics, their means over the runs, NEES/NIS in band from :data:`SETTLING_S`, gate rates."""
+#: metrics.json keys that score against a truth: absent when ``lcnav run --measurements`` has no ``--truth-file``.
+TRUTH_KEYS = ("components", "nees_fraction_in_95", "filter_components", "components_mean_over_runs", "nees")
+
+
+def _truth_metrics(setup: RunSetup, results: list, sel: np.ndarray) -> dict:
+    """The truth-based part of metrics.json: §6 metrics of the first run and their means over the runs, NEES in band."""
     tr = setup.truth
     states = np.arange(DK.start) if setup.nav.consider else np.arange(N_ERROR)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
-    sel = (tr.t - tr.t[0]) >= SETTLING_S
     lo, hi = chi_square_band(len(states), setup.runs, 0.95)
     avg = E[:, sel].mean(axis=0)
-    first, _, m0 = results[0]
+    m0 = results[0][2]
     return {
-        "filter": setup.nav.filter_name,
-        "scenario": tr.scenario.name,
         "components": _metrics_dict(m0["state"]),
         "nees_fraction_in_95": _num(float(np.mean((avg >= lo) & (avg <= hi))) if avg.size else float("nan")),
         "filter_components": _metrics_dict(m0["filter"]),
         "components_mean_over_runs": {g: {k: _mean_over_runs(results, g, k) for k in ("convergence_time_s", "steady_state_rmse")} for g in GROUPS},
         "nees": {"dof": int(len(states)), "from_s": float(SETTLING_S), "band_95": [lo, hi], "runs": setup.runs},
+    }
+
+
+def _run_metrics(setup: RunSetup, results: list) -> dict:
+    """metrics.json: with a truth its :data:`TRUTH_KEYS` (:func:`_truth_metrics`); NIS in band from :data:`SETTLING_S`, gate rates."""
+    tr = setup.truth
+    sel = (tr.t - tr.t[0]) >= SETTLING_S
+    first = results[0][0]
+    return {
+        "filter": setup.nav.filter_name,
+        "scenario": tr.scenario.name,
+        **(_truth_metrics(setup, results, sel) if setup.scored else {}),
         "nis_fraction_in_95": {s: _num(fraction_in_band(np.array([r.nis[s][sel] for r, _, _ in results]), 3)) for s in SOURCES},
         "reacquisitions": [[t_re, source] for t_re, source in first.reacquisitions],
         "gate_rejection_rate": {s: _num(float(np.mean([np.mean(~r.accepted[s][np.isfinite(r.nis[s])]) for r, _, _ in results]))) for s in SOURCES},
@@ -334,15 +408,22 @@ def summary_lines(metrics: dict) -> list[str]:
     def pct(x, digits=0):
         return "–" if x is None else f"{100 * x:.{digits}f} %"
 
-    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}, tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
-             f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)",
-             f"  {'group':6s}{'t_conv (s)':>12s}{'RMSE':>14s}"]
-    for g, c in metrics["components_mean_over_runs"].items():
-        t_conv, rmse = c["convergence_time_s"], c["steady_state_rmse"]
-        lines.append(f"  {g:6s}{'–' if t_conv is None else f'{t_conv:.1f}':>12s}{'–' if rmse is None else f'{rmse:.3g}':>14s} {UNITS[g]}")
-    n, nis, gate = metrics["nees"], metrics["nis_fraction_in_95"], metrics["gate_rejection_rate"]
-    lines.append(f"  from t >= {n['from_s']:g} s: NEES in its 95 % band on {pct(metrics['nees_fraction_in_95'])} of the steps "
-                 f"({n['dof']} dof); NIS in band {', '.join(f'{s} {pct(v)}' for s, v in nis.items())}")
+    truth = cfg.get("truth", "torque-free")  # metrics.json written before the perturbed truth existed: torque-free
+    lines = [f"lcnav run: {metrics['filter'].upper()} on {metrics['scenario']}{'' if truth == 'torque-free' else f' ({truth} truth)'}, "
+             f"tuning {cfg['tuning']!r}, {cfg['runs']} run(s) of "
+             f"{cfg['duration_s']:g} s at {cfg['dt_s']:g} s (mean over the runs; '–': did not converge)"]
+    nis, gate = metrics["nis_fraction_in_95"], metrics["gate_rejection_rate"]
+    nis_text = f"NIS in band {', '.join(f'{s} {pct(v)}' for s, v in nis.items())}"
+    if "nees" in metrics:
+        lines.append(f"  {'group':6s}{'t_conv (s)':>12s}{'RMSE':>14s}")
+        for g, c in metrics["components_mean_over_runs"].items():
+            t_conv, rmse = c["convergence_time_s"], c["steady_state_rmse"]
+            lines.append(f"  {g:6s}{'–' if t_conv is None else f'{t_conv:.1f}':>12s}{'–' if rmse is None else f'{rmse:.3g}':>14s} {UNITS[g]}")
+        n = metrics["nees"]
+        lines.append(f"  from t >= {n['from_s']:g} s: NEES in its 95 % band on {pct(metrics['nees_fraction_in_95'])} of the steps "
+                     f"({n['dof']} dof); {nis_text}")
+    else:
+        lines.append(f"  no truth to score against (--measurements without --truth-file); from t >= {SETTLING_S:g} s {nis_text}")
     lines.append(f"  gates (confidence {cfg['gate_confidence']}): rejected {', '.join(f'{s} {pct(v, 1)}' for s, v in gate.items())}"
                  + (f"; {len(metrics['reacquisitions'])} re-acquisition(s)" if metrics["reacquisitions"] else ""))
     return lines

@@ -7,6 +7,7 @@ from typing import Optional
 
 import typer
 
+from estimators.perturbations import TRUTH_PHYSICS, get_truth_physics
 from studies.engine import validate as v
 from studies.engine.io import atomic_path, output_folder
 from studies.sim.scenarios import get_scenario, list_scenarios
@@ -23,6 +24,8 @@ def simulate(
     duration: float = typer.Option(300.0, help="Simulated time, s (at most 1e6).", callback=v.number(0, 1e6, lo_open=True, unit="s")),
     dt: float = typer.Option(0.5, help="Sampling step of the written truth, s.", callback=v.number(0, 3600, lo_open=True, unit="s")),
     seed: int = typer.Option(1, help="Seed recorded with the run (the truth itself draws nothing).", callback=v.seed()),
+    truth: str = typer.Option("torque-free", help="Truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
+                              "J2, drag, nutation damping; see estimators.perturbations).", callback=v.choice(TRUTH_PHYSICS)),
     out: Optional[Path] = typer.Option(None, help="Output folder for truth.parquet and truth.rrd.", callback=v.out_dir()),
     list_: bool = typer.Option(False, "--list", help="List the scenarios and exit."),
 ) -> None:
@@ -35,15 +38,17 @@ def simulate(
     if dt > duration or duration / dt > MAX_STEPS:
         v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} steps")
     if out is None:
-        raise v.InputError("--out: missing; expected the output folder for truth.parquet and truth.rrd")
-    truth = simulate_truth(sc, duration, dt)
-    df = truth.table()
-    df.attrs = {"scenario": sc.name, "seed": int(seed), "duration_s": duration, "dt_s": dt}
+        raise v.InputError("--out: missing: expected the output folder for truth.parquet and truth.rrd")
+    physics = get_truth_physics(truth)
+    tr = simulate_truth(sc, duration, dt, physics)
+    df = tr.table()
+    df.attrs = {"scenario": sc.name, "seed": int(seed), "duration_s": duration, "dt_s": dt, "truth": physics.name,
+                "truth_physics": physics.as_dict()}
     with output_folder(out, "simulate") as stage:
         with atomic_path(stage / "truth.parquet") as tmp:
             df.to_parquet(tmp, index=False)
-        record_truth(truth, stage / "truth.rrd", seed)
-    typer.echo(f"wrote {out / 'truth.parquet'} ({len(df)} rows) and {out / 'truth.rrd'}")
+        record_truth(tr, stage / "truth.rrd", seed)
+    typer.echo(f"wrote {out / 'truth.parquet'} ({len(df)} rows, {physics.name} truth) and {out / 'truth.rrd'}")
 
 
 def register(app: typer.Typer) -> None:

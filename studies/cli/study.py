@@ -9,6 +9,7 @@ import typer
 
 from studies.engine import validate as v
 from studies.engine.registry import STUDIES, run_study
+from studies.engine.sweep import CONNECT_TIMEOUT_S, MAX_CONNECT_TIMEOUT_S
 
 
 def study(
@@ -18,9 +19,13 @@ def study(
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default runs/NAME-TIMESTAMP); re-use it to resume.", callback=v.out_dir()),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Existing Dask scheduler, tcp://HOST:PORT.", callback=v.text()),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local Dask workers (default: the machine's cores; at most 4 per core)."),
+    connect_timeout_s: Optional[float] = typer.Option(None, "--connect-timeout-s", help="How long --scheduler has to answer before the study is "
+                                                      f"refused, s (default {CONNECT_TIMEOUT_S:g}, at most {MAX_CONNECT_TIMEOUT_S:g}).",
+                                                      callback=v.number(0, MAX_CONNECT_TIMEOUT_S, lo_open=True, unit="s")),
 ) -> None:
     """Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."""
-    result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers)
+    result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers,
+                       connect_timeout_s=connect_timeout_s)
     typer.echo(result.markdown)
     typer.echo(f"{result.n_executed} runs executed, {result.n_skipped} already stored; wrote {result.out_dir}")
 

@@ -14,7 +14,7 @@ default, ``--config FILE`` otherwise). Each file has
 
 A bad file raises :class:`ConfigError` (a ``ValueError``) whose one-line
 message names the file, the field and the expected form, e.g.
-``truth.toml: field 'n_seeds' must be an integer >= 1 and <= 100000, got -3``; the CLI
+``truth.toml: n_seeds -3: expected an integer >= 1 and <= 100000``; the CLI
 prints that line and exits non-zero before writing anything.
 
 Sizes are bounded so that no config can make a study hang or exhaust memory:
@@ -33,6 +33,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from studies.engine.validate import plain
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "catalog" / "configs"
 """Folder of the editable default configs, one ``<study>.toml`` per study."""
@@ -115,8 +117,7 @@ class Field:
     def check(self, value, name: str, where: str):
         """Return ``value`` converted to the field's kind; ConfigError naming ``name`` otherwise."""
         def fail():
-            shown = repr(value) if len(repr(value)) <= 80 else repr(value)[:77] + "..."
-            raise ConfigError(f"{where}: field {name!r} must be {self.expected()}, got {shown}")
+            raise ConfigError(f"{where}: {name} {plain(value)}: expected {self.expected()}")
 
         if self.kind.startswith("list["):
             if not isinstance(value, list) or not self.min_len <= len(value) <= MAX_LIST:
@@ -193,14 +194,14 @@ def read_toml(path) -> dict:
     if not path.is_file():
         raise FileNotFoundError(f"config file {path} does not exist")
     if path.stat().st_size > MAX_CONFIG_BYTES:
-        raise ConfigError(f"{path.name}: {path.stat().st_size} bytes; expected a config of at most {MAX_CONFIG_BYTES} bytes")
+        raise ConfigError(f"{path.name}: {path.stat().st_size} bytes: expected a config of at most {MAX_CONFIG_BYTES} bytes")
     try:
         with path.open("rb") as f:
             return tomllib.load(f)
     except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path.name}: not valid TOML: {str(e).splitlines()[0]}") from None
+        raise ConfigError(f"{path.name}: not valid TOML ({str(e).splitlines()[0]}): expected a TOML file") from None
     except UnicodeDecodeError:
-        raise ConfigError(f"{path.name}: not valid TOML: the file is not UTF-8 text") from None
+        raise ConfigError(f"{path.name}: not UTF-8 text: expected a TOML file") from None
 
 
 def _check_fields(raw: Mapping, fields: Mapping[str, Field], where: str, prefix: str = "", fill_defaults: bool = True) -> dict:
@@ -208,13 +209,13 @@ def _check_fields(raw: Mapping, fields: Mapping[str, Field], where: str, prefix:
     for name, value in raw.items():
         if name not in fields:
             known = ", ".join(sorted(fields))
-            raise ConfigError(f"{where}: unknown field {prefix + name!r}; expected one of: {known}")
+            raise ConfigError(f"{where}: unknown field {prefix + name!r}: expected one of: {known}")
         out[name] = fields[name].check(value, prefix + name, where)
     if fill_defaults:
         for name, field in fields.items():
             if name not in out:
                 if field.required:
-                    raise ConfigError(f"{where}: missing field {prefix + name!r}: {field.expected()} ({field.doc})")
+                    raise ConfigError(f"{where}: {prefix + name} missing: expected {field.expected()} ({field.doc})")
                 out[name] = field.default
     return out
 
@@ -226,8 +227,8 @@ def _check_steps(params: Mapping, where: str) -> None:
         if "duration" in name and name.endswith("_s") and isinstance(duration, int | float):
             for step_name, step in steps.items():
                 if duration / step > MAX_STEPS:
-                    raise ConfigError(f"{where}: fields {name!r} / {step_name!r} = {duration:g} / {step:g} give {duration / step:.3g} steps; "
-                                      f"expected at most {MAX_STEPS}")
+                    raise ConfigError(f"{where}: {name} / {step_name} {duration:g} / {step:g} ({duration / step:.3g} steps): "
+                                      f"expected at most {MAX_STEPS} steps")
 
 
 def validate_config(raw: Mapping, study: str, fields: Mapping[str, Field], *, quick: bool = False, where: str = "config") -> StudyConfig:
@@ -237,13 +238,15 @@ def validate_config(raw: Mapping, study: str, fields: Mapping[str, Field], *, qu
     missing required fields and values of the wrong form raise ConfigError.
     """
     raw = dict(raw)
+    if not raw:
+        raise ConfigError(f"{where}: empty: expected a TOML config with study = {study!r}, seed and the study's fields")
     quick_raw = raw.pop("quick", {})
     common = _check_fields({k: raw.pop(k) for k in list(raw) if k in COMMON_FIELDS}, COMMON_FIELDS, where)
     if common["study"] != study:
-        raise ConfigError(f"{where}: field 'study' must be {study!r} (the study being run), got {common['study']!r}")
+        raise ConfigError(f"{where}: study {plain(common['study'])}: expected {study!r} (the study being run)")
     params = _check_fields(raw, fields, where)
     if not isinstance(quick_raw, dict):
-        raise ConfigError(f"{where}: field 'quick' must be a table of overrides ([quick]), got {quick_raw!r}")
+        raise ConfigError(f"{where}: quick {plain(quick_raw)}: expected a table of overrides ([quick])")
     overrides = _check_fields(quick_raw, fields, where, prefix="quick.", fill_defaults=False)
     if quick:
         params.update(overrides)

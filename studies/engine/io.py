@@ -17,8 +17,12 @@ A command that fills an output folder does it inside :func:`output_folder`:
   version, UTC time, files) written last. On failure the staged files are
   removed, and a folder the command created is removed again.
 
-So a folder without ``.complete.json`` is unfinished (killed or failed), never
-mistaken for a result.
+So a folder without ``.complete.json`` is unfinished (killed, interrupted or
+failed), never mistaken for a result.
+
+A full file system (``ENOSPC``, also pyarrow's ``[errno 28]`` text) while
+writing becomes :class:`NoSpaceError` naming the folder being written (the
+``--out`` folder for a command's outputs), after the partial files are removed.
 """
 
 from __future__ import annotations
@@ -34,16 +38,46 @@ import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
+from studies.engine import interrupt
+
+if TYPE_CHECKING:  # pandas is imported by the writers that need it, not by every command
+    import pandas as pd
+
+
+class NoSpaceError(OSError):
+    """The file system of an output folder is full (``ENOSPC``); ``filename`` is the folder."""
+
+
+def _is_no_space(e: OSError) -> bool:
+    # pyarrow reports a full disk as a plain OSError whose text holds "[errno 28]", without errno set
+    return isinstance(e, NoSpaceError) or e.errno in (errno.ENOSPC, errno.EDQUOT) or f"errno {errno.ENOSPC}]" in str(e).lower()
+
+
+def no_space(folder) -> NoSpaceError:
+    """A :class:`NoSpaceError` naming ``folder``, the folder whose file system is full."""
+    return NoSpaceError(errno.ENOSPC, "no space left on device: expected a folder on a file system with free space", str(folder))
+
+
+@contextlib.contextmanager
+def _full_disk_names(folder) -> Iterator[None]:
+    """Turn a full-disk OSError raised in the block into a :class:`NoSpaceError` naming ``folder`` (the outermost: the user's folder)."""
+    try:
+        yield
+    except OSError as e:
+        if _is_no_space(e):
+            raise no_space(folder) from None
+        raise
 
 
 @contextlib.contextmanager
 def _temporary(path) -> Iterator[Path]:
     """A new empty file ``.NAME.XXXX.tmp`` next to ``path`` (ordinary permissions); removed on exit if still there."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    with _full_disk_names(path.parent):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
     # mkstemp makes the file owner-only (0600); give it the permissions an
     # ordinary new file would have (0666 less the umask).
@@ -52,7 +86,8 @@ def _temporary(path) -> Iterator[Path]:
     os.chmod(tmp, 0o666 & ~umask)
     tmp = Path(tmp)
     try:
-        yield tmp
+        with _full_disk_names(path.parent):
+            yield tmp
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -111,9 +146,14 @@ def atomic_paths(*paths) -> Iterator[list[Path]]:
     """Temporary paths next to each of ``paths``; all renamed onto them only if the block succeeds.
 
     For a command writing several files that belong together (a light curve and
-    its recording): on any exception none of them is written.
+    its recording): on any exception none of them is written. Each file's lock
+    (:func:`file_lock`) is held meanwhile, so a second lcnav writing the same
+    file is refused instead of racing this one.
     """
     with contextlib.ExitStack() as stack:
+        for p in paths:
+            Path(p).parent.mkdir(parents=True, exist_ok=True)
+            stack.enter_context(file_lock(p))
         tmps = [stack.enter_context(_temporary(p)) for p in paths]
         yield tmps
         for tmp, path in zip(tmps, paths):
@@ -155,15 +195,14 @@ class FolderBusy(ValueError):
 
 
 @contextlib.contextmanager
-def folder_lock(out: Path) -> Iterator[None]:
-    """Hold ``OUT/.lcnav.lock`` (non-blocking ``flock``); FolderBusy naming the holder's pid otherwise.
+def _lock(path: Path, what: str) -> Iterator[None]:
+    """Hold the lock file ``path`` (non-blocking ``flock``); FolderBusy ``<what>: another lcnav is writing to it (pid N)`` otherwise.
 
     The lock file holds the holder's pid and is removed on release. A waiter
     that opened the file just before it was removed would lock a file no one
     else sees, so after locking the inode is compared with the path's and the
     attempt repeated if they differ (the usual lock-file protocol).
     """
-    path = out / LOCK_FILE
     for _ in range(100):
         fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -173,8 +212,8 @@ def folder_lock(out: Path) -> Iterator[None]:
             os.close(fd)
             if e.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                 raise
-            raise FolderBusy(f"--out {str(out)!r}: another lcnav is writing to it (pid {holder}); expected a folder no other lcnav is using "
-                             "(wait for it to finish or choose another --out)") from None
+            raise FolderBusy(f"{what}: another lcnav is writing to it (pid {holder}): expected a path no other lcnav is using "
+                             "(wait for it to finish or choose another)") from None
         try:
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
         except FileNotFoundError:
@@ -183,7 +222,7 @@ def folder_lock(out: Path) -> Iterator[None]:
             break
         os.close(fd)  # locked a lock file that its holder removed meanwhile: try the new one
     else:  # pragma: no cover - 100 lost races in a row
-        raise FolderBusy(f"--out {str(out)!r}: could not take its lock; expected a folder no other lcnav is using")
+        raise FolderBusy(f"{what}: could not take its lock: expected a path no other lcnav is using")
     try:
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
@@ -191,6 +230,17 @@ def folder_lock(out: Path) -> Iterator[None]:
     finally:
         path.unlink(missing_ok=True)  # still under the lock: a waiter sees no file or a new one
         os.close(fd)
+
+
+def folder_lock(out: Path):
+    """Hold ``OUT/.lcnav.lock``: a second lcnav writing to ``out`` is refused at once, naming this one's pid."""
+    return _lock(Path(out) / LOCK_FILE, f"--out {str(out)!r}")
+
+
+def file_lock(path: Path):
+    """Hold ``.NAME.lcnav.lock`` next to the output file ``path`` (a bare ``--out lc.ecsv``), as :func:`folder_lock` does for a folder."""
+    path = Path(path)
+    return _lock(path.parent / f".{path.name}{LOCK_FILE}", repr(str(path)))
 
 
 @contextlib.contextmanager
@@ -206,6 +256,13 @@ def output_folder(out, command: str, *, staged: bool = True, check=None) -> Iter
     ``staged=False`` the caller removes the old marker before its first write.
     """
     out = Path(out)
+    with _full_disk_names(out):
+        with _output_folder(out, command, staged, check) as stage:
+            yield stage
+
+
+@contextlib.contextmanager
+def _output_folder(out: Path, command: str, staged: bool, check) -> Iterator[Path]:
     created = []
     p = out
     while not p.exists():
@@ -221,6 +278,7 @@ def output_folder(out, command: str, *, staged: bool = True, check=None) -> Iter
             stage = Path(tempfile.mkdtemp(prefix=STAGE_PREFIX, dir=out)) if staged else out
             try:
                 yield stage
+                interrupt.check()  # a Ctrl-C swallowed by the block's code still leaves the folder unfinished
                 names = []
                 if staged:
                     (out / COMPLETE_FILE).unlink(missing_ok=True)

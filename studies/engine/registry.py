@@ -85,7 +85,7 @@ STUDIES: dict[str, StudyDefinition] = {
 def get_study(name: str) -> StudyDefinition:
     """The registered study ``name``; ValueError naming the runnable ones otherwise."""
     if name not in STUDIES:
-        raise ValueError(f"unknown study {name!r}; known studies: {', '.join(STUDIES)}")
+        raise ValueError(f"unknown study {name!r}: expected one of the known studies: {', '.join(STUDIES)}")
     return STUDIES[name]
 
 
@@ -105,10 +105,10 @@ def _check_out_dir(out: Path, config: StudyConfig) -> None:
         try:
             old = json.loads(stamp.read_text())
         except (ValueError, RecursionError):
-            raise v.InputError(f"--out {str(out)!r}: study.json is not JSON; expected the folder of a study (or a new --out)") from None
+            raise v.InputError(f"--out {str(out)!r}: study.json is not JSON: expected the folder of a study (or a new --out)") from None
         if not isinstance(old, dict) or json.dumps(old, sort_keys=True) != config.identity_json():
             study = old.get("study") if isinstance(old, dict) else None
-            raise v.InputError(f"--out {str(out)!r} holds a {study!r} study with another config (see {stamp}); expected a new --out or the same config")
+            raise v.InputError(f"--out {str(out)!r} holds a {study!r} study with another config (see {stamp}): expected a new --out or the same config")
 
 
 @dataclass(frozen=True)
@@ -122,19 +122,21 @@ class StudyOutcome:
 
 
 def run_study(name: str, *, config_path: Path | None = None, quick: bool = False, out: Path | None = None,
-              scheduler: str | None = None, workers: int | None = None, progress: bool = True) -> StudyOutcome:
+              scheduler: str | None = None, workers: int | None = None, progress: bool = True,
+              connect_timeout_s: float | None = None) -> StudyOutcome:
     """Everything ``lcnav study`` does, as a function (validation first, then the sweep, then the tables)."""
     study = get_study(name)
     check_scheduler(scheduler)
     check_workers(workers)
     if scheduler is not None and workers is not None:
-        raise ValueError("--workers sizes the local cluster; it cannot be combined with --scheduler (size the remote cluster there)")
+        raise ValueError(f"--workers {workers} with --scheduler: expected one of them (--workers sizes the local cluster; it cannot be combined "
+                         "with --scheduler: size the remote cluster there)")
     if config_path is not None:
         v.check_in_file("--config", config_path, (".toml",))
     config = study.load(config_path, quick=quick)
     specs = study.expand(config)
     if len(specs) > MAX_RUNS:
-        raise v.InputError(f"{Path(config.source).name}: {len(specs)} runs; expected a study of at most {MAX_RUNS} runs")
+        raise v.InputError(f"{Path(config.source).name}: {len(specs)} runs: expected a study of at most {MAX_RUNS} runs")
     out = v.check_out_dir("--out", Path(out) if out is not None else default_out_dir(name))
 
     def prepare():  # the first write, once the cluster answers: the folder is unfinished from here on
@@ -142,7 +144,8 @@ def run_study(name: str, *, config_path: Path | None = None, quick: bool = False
         write_json(out / "study.json", config.identity())
 
     with output_folder(out, "study", staged=False, check=lambda d: _check_out_dir(d, config)):
-        sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name, prepare=prepare)
+        sweep = run_sweep(specs, study.execute, out, scheduler=scheduler, workers=workers, progress=progress, desc=name, prepare=prepare,
+                          connect_timeout_s=connect_timeout_s)
         write_table(out / "runs.parquet", sweep.table, csv=True)
         tables = list(study.summarise(sweep.table, config, out))
         if not tables or tables[0].name != "summary":

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from studies.engine.io import atomic_path, write_json
-from studies.engine.validate import check_count, fail
+from studies.engine.validate import InputError, check_count, fail
 
 RUN_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 SCHEDULER_RE = re.compile(r"^(tcp|tls)://[^\s:/]+:\d{1,5}$")
@@ -136,15 +136,23 @@ def check_workers(workers: int | None) -> None:
         check_count("--workers", workers, 1, MAX_WORKERS_PER_CORE * default_workers())
 
 
-#: How long a ``--scheduler`` has to answer, s.
+#: How long a ``--scheduler`` has to answer by default (``lcnav study --connect-timeout-s``), and at most, s.
 CONNECT_TIMEOUT_S = 20.0
+MAX_CONNECT_TIMEOUT_S = 600.0
+
+
+#: Run by each local worker process as it starts (a Dask preload given as script text): a terminal's Ctrl-C goes to the
+#: whole process group, and a worker that took it printed its own KeyboardInterrupt traceback over ``lcnav: aborted``.
+#: The lcnav process alone handles it (:mod:`studies.engine.interrupt`) and closes the cluster, which stops the workers.
+WORKER_IGNORES_SIGINT = "import signal  # lcnav: Ctrl-C is for the lcnav process\nsignal.signal(signal.SIGINT, signal.SIG_IGN)\n"
 
 
 @contextlib.contextmanager
 def dask_client(scheduler: str | None = None, workers: int | None = None, *, connect_timeout_s: float | None = None):
     """A Dask client: on ``scheduler`` if given, else on a new local cluster of ``workers`` processes.
 
-    An unreachable scheduler is bad input: ValueError naming the address.
+    An unreachable scheduler is bad input: ValueError naming the address, raised once
+    ``connect_timeout_s`` (default :data:`CONNECT_TIMEOUT_S`) has passed.
     """
     from distributed import Client, LocalCluster
 
@@ -154,19 +162,14 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, *, con
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=f"{connect_timeout_s}s")
-        except (OSError, TimeoutError) as e:
-            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}); "
-                             "expected a running scheduler at that address") from None
+        except (OSError, TimeoutError, MemoryError, ValueError) as e:  # refused, silent, or something else answering (garbage lengths)
+            raise ValueError(f"--scheduler {scheduler}: no Dask scheduler answered within {connect_timeout_s:g} s ({type(e).__name__}): "
+                             "expected a running scheduler at that address (or a longer --connect-timeout-s)") from None
         with client:
             yield client
         return
-    with LocalCluster(
-        n_workers=workers or default_workers(),
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-    ) as cluster, Client(cluster) as client:
+    with LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.ERROR, preload=[WORKER_IGNORES_SIGINT]) as cluster, Client(cluster) as client:
         yield client
 
 
@@ -223,9 +226,15 @@ def read_result(out_dir, spec: RunSpec) -> dict | None:
     path = run_dir(out_dir, spec.run_id) / RESULT_FILE
     if not path.is_file():
         return None
-    rec = json.loads(path.read_text())
+    expected = "the metrics.json of a finished run (delete it to run that run again)"
+    try:
+        rec = json.loads(path.read_bytes())
+    except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError; nesting too deep
+        raise InputError(f"{path}: not JSON ({type(e).__name__}: {str(e)[:80]}): expected {expected}") from None
+    if not isinstance(rec, dict) or not isinstance(rec.get("metrics"), dict) or ELAPSED_COLUMN not in rec:
+        raise InputError(f"{path}: no metrics or elapsed_s: expected {expected}")
     if rec.get("seed") != spec.seed or rec.get("params") != json.loads(json.dumps(dict(spec.params))):
-        raise ValueError(f"{path} holds run {spec.run_id!r} of a different config (seed or parameters differ); use a new --out")
+        raise InputError(f"{path}: run {spec.run_id!r} of another config (seed or parameters differ): expected a new --out or the same config")
     return rec
 
 
@@ -250,13 +259,15 @@ def run_sweep(
     progress: bool = True,
     desc: str = "runs",
     prepare: Callable[[], None] | None = None,
+    connect_timeout_s: float | None = None,
 ) -> SweepResult:
     """Execute every spec without a stored result; return the table of all of them.
 
     ``execute`` must be importable by the workers (a module-level function).
     ``prepare()`` is called once the cluster is up (or at once if every run
     is stored), before the first result is written: a caller's first write
-    (``study.json``) waits until an unreachable ``--scheduler`` has failed.
+    (``study.json``) waits until an unreachable ``--scheduler`` has failed
+    (after ``connect_timeout_s``, see :func:`dask_client`).
     Results are written as they arrive. If some runs raise, the others are
     still written and :class:`SweepError` names the failed ones.
     """
@@ -272,7 +283,7 @@ def run_sweep(
     if not todo and prepare is not None:
         prepare()
     if todo:
-        with dask_client(scheduler, workers) as client, tqdm(
+        with dask_client(scheduler, workers, connect_timeout_s=connect_timeout_s) as client, tqdm(
             total=len(specs), initial=n_skipped, desc=desc, unit="run", disable=not progress
         ) as bar:
             if prepare is not None:

@@ -13,6 +13,7 @@ computed or written. Each bound is a sane ceiling, so that no option can make a
 command hang or exhaust memory (e.g. ``--rate-hz 1e6`` or ``--duration 1e300``).
 """
 
+import errno
 import math
 import os
 import re
@@ -144,8 +145,13 @@ def check_in_file(what: str, path, suffixes: Iterable[str] | None = None, *, max
     suffixes = None if suffixes is None else tuple(suffixes)
     if suffixes is not None and path.suffix.lower() not in suffixes:
         fail(what, str(path), "a file named " + " or ".join(f"*{s}" for s in suffixes))
-    if not path.exists():
-        raise FileNotFoundError(f"{what} {str(path)!r}: no such file")
+    try:
+        os.stat(path)
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            fail(what, str(path), "a file, not a loop of symbolic links")
+        raise FileNotFoundError(errno.ENOENT, f"no such file: expected an existing {'/'.join(suffixes) if suffixes else ''} file".replace("  ", " "),
+                                f"{what} {str(path)!r}") from None
     if not path.is_file():
         fail(what, str(path), "a file, not a folder")
     if not os.access(path, os.R_OK):
@@ -218,6 +224,19 @@ def one_of(values: Iterable):
     def check(what, x):
         if x not in values:
             fail(what, x, "one of " + ", ".join(str(c) for c in values))
+        return x
+
+    return _callback(check)
+
+
+def choice(values: Iterable[str]):
+    """Typer callback: one of a few names, the expected form spelt ``a, b or c`` (``--truth 'x': expected torque-free or perturbed``)."""
+    values = tuple(values)
+    words = values[0] if len(values) == 1 else ", ".join(values[:-1]) + " or " + values[-1]
+
+    def check(what, x):
+        if x not in values:
+            fail(what, x, words)
         return x
 
     return _callback(check)

@@ -9,15 +9,36 @@ import numpy as np
 from estimators.error_state import boxminus
 from estimators.navigation import SOURCES, NavigationRun
 from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T, K, Q_TS, R_ST_T, V_ST_T, W_ST_T
-from studies.recording.blueprint import AXES, converged_range, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
+from studies.recording.blueprint import AXES, converged_range, hemisphere_continuous, run_blueprint, send_error, send_estimate, send_quaternion, send_truth
 from studies.recording.writer import recording, send_scalars, set_sim_time
 from studies.sim.truth import Truth
 
 QUAT_AXES = ("0", "1", "2", "3")
+#: Recorded vector quantities: (state slice, error-state slice, axis names).
+QUANTITIES = {"w_ST_T": (W_ST_T, DW_ST_T, AXES), "r_ST_T": (R_ST_T, DR_ST_T, AXES), "v_ST_T": (V_ST_T, DV_ST_T, AXES), "k": (K, DK, ("k1", "k2"))}
 
 
-def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, recording_id: str, extra_scalars: dict | None = None) -> None:
+def _send_states(rec, f: str, t, run: NavigationRun, x_true) -> None:
+    """The estimate of every state quantity; with ``x_true`` (N, 15) also the truth and the errors against the filter's ±3σ."""
+    sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
+    if x_true is None:
+        send_estimate(rec, f, "q_TS", t, hemisphere_continuous(run.x[:, Q_TS]), axes=QUAT_AXES)
+    else:
+        send_quaternion(rec, f, "q_TS", t, run.x[:, Q_TS], x_true[:, Q_TS], QUAT_AXES)
+        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
+        send_error(rec, f, "q_TS", t, boxminus(run.x, x_true)[:, DTHETA], sig[:, DTHETA])
+    for name, (sl, esl, axes) in QUANTITIES.items():
+        if x_true is not None:
+            send_truth(rec, name, t, x_true[:, sl], axes)
+        send_estimate(rec, f, name, t, run.x[:, sl], truth=None if x_true is None else x_true[:, sl], sigma=sig[:, esl], axes=axes)
+
+
+def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, recording_id: str, extra_scalars: dict | None = None,
+                      with_truth: bool = True) -> None:
     """``path`` (``.rrd``) in the layout of :mod:`studies.recording.blueprint`, with its viewer layout.
+
+    ``with_truth=False`` (measurements whose truth is unknown): the estimate only, no ``/truth/...``
+    and no errors; ``tr`` then only gives the times.
 
     ``meas``: ``(t, q_TS, r_ST_T, ...)`` as the filter saw them; ``extra_scalars``:
     ``{entity: (t, values)}`` further series (e.g. ``/measurement/faulty``).
@@ -26,22 +47,17 @@ def record_navigation(path: Path, tr: Truth, run: NavigationRun, meas, *, record
 
     f, t = run.filter, tr.t
     sig = np.sqrt(np.diagonal(run.P, axis1=1, axis2=2))
-    quantities = {"w_ST_T": (W_ST_T, DW_ST_T, AXES), "r_ST_T": (R_ST_T, DR_ST_T, AXES),
-                  "v_ST_T": (V_ST_T, DV_ST_T, AXES), "k": (K, DK, ("k1", "k2"))}
-    error = {"q_TS": (boxminus(run.x, tr.x)[:, DTHETA], sig[:, DTHETA])}
-    error.update({name: (run.x[:, sl] - tr.x[:, sl], sig[:, esl]) for name, (sl, esl, _) in quantities.items()})
-    # visible ranges from the converged part: the initial transient would flatten the rest of each plot
-    error_ranges = {(f, name): converged_range(t, e, 3.0 * s, -3.0 * s) for name, (e, s) in error.items()}
+    error_ranges, gate_range = None, None
+    if with_truth:
+        error = {"q_TS": (boxminus(run.x, tr.x)[:, DTHETA], sig[:, DTHETA])}
+        error.update({name: (run.x[:, sl] - tr.x[:, sl], sig[:, esl]) for name, (sl, esl, _) in QUANTITIES.items()})
+        # visible ranges from the converged part: the initial transient would flatten the rest of each plot
+        error_ranges = {(f, name): converged_range(t, e, 3.0 * s, -3.0 * s) for name, (e, s) in error.items()}
     upper = max((d.upper for d in run.decisions), default=0.0)  # the gates' chi-square bound stays in view
     gate_range = converged_range(t, np.column_stack([run.nis[s] for s in SOURCES]), floor=1.25 * upper)
-    blueprint = run_blueprint(quantities=["q_TS", *quantities], filters=[f], gates=True, error_ranges=error_ranges, gate_range=gate_range)
+    blueprint = run_blueprint(quantities=["q_TS", *QUANTITIES], filters=[f], gates=True, error_ranges=error_ranges, gate_range=gate_range)
     with recording(path, recording_id=recording_id, blueprint=blueprint) as rec:
-        send_quaternion(rec, f, "q_TS", t, run.x[:, Q_TS], tr.x[:, Q_TS], QUAT_AXES)
-        # attitude error δp ≈ rotation vector of q̂ ⊗ q⁻¹ (rad), against the filter's own 3σ
-        send_error(rec, f, "q_TS", t, *error["q_TS"])
-        for name, (sl, esl, axes) in quantities.items():
-            send_truth(rec, name, t, tr.x[:, sl], axes)
-            send_estimate(rec, f, name, t, run.x[:, sl], truth=tr.x[:, sl], sigma=sig[:, esl], axes=axes)
+        _send_states(rec, f, t, run, tr.x if with_truth else None)
         tm, qm, rm = meas[:3]
         send_scalars(rec, "/measurement/attitude/q_TS", tm, qm, list(QUAT_AXES))
         send_scalars(rec, "/measurement/position/r_ST_T", tm, rm, list(AXES))

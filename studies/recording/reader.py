@@ -48,10 +48,10 @@ def _open_store(path: Path):
         reader = RrdReader(path)
         recs = reader.recordings()
         if not recs:
-            raise v.InputError(f"{str(path)!r} holds no recording; expected a rerun recording written by lcnav")
+            raise v.InputError(f"{str(path)!r} holds no recording: expected a rerun recording written by lcnav")
         return reader, recs[0], reader.stream(store=recs[0]).collect()
     except RuntimeError as e:  # rerun reports a malformed or truncated file as a RuntimeError
-        raise v.InputError(f"{str(path)!r} is not a readable rerun recording ({v.plain(str(e), 160)[1:-1]}); expected a .rrd written by lcnav") from None
+        raise v.InputError(f"{str(path)!r} is not a readable rerun recording ({v.plain(str(e), 160)[1:-1]}): expected a .rrd written by lcnav") from None
 
 
 def _time_frame(store, contents=None) -> pd.DataFrame:
@@ -133,7 +133,7 @@ def export_series(path, contents: list[str] | None = None) -> tuple[pd.DataFrame
     try:
         df = _time_frame(store, contents)
     except (ValueError, RuntimeError) as e:  # a malformed entity-path expression
-        raise v.InputError(f"--contents {v.plain(contents)}: {v.plain(str(e), 160)[1:-1]}; expected entity-path expressions like '/truth/**'") from None
+        raise v.InputError(f"--contents {v.plain(contents)}: {v.plain(str(e), 160)[1:-1]}: expected entity-path expressions like '/truth/**'") from None
     static = {c.name for c in store.schema().component_columns() if c.is_static}
     out = {TIME_COLUMN: df[TIMELINE].dt.total_seconds().to_numpy()}
     skipped = []

@@ -30,17 +30,27 @@ def recording(path, *, recording_id: str | None = None, application_id: str = "l
 
     The recording is named after ``recording_id`` (or the file's stem), so several
     recordings opened together are told apart in the viewer (not "<unknown>").
+    It is kept in memory (``memory_recording``) and written by this thread with
+    :func:`studies.engine.io.atomic_path` at the end: rerun's own file sink writes
+    from a background thread, which on a full disk only logs ``ERROR
+    re_log_encoding...`` lines and fails later with "File-writer thread shut down
+    prematurely"; here the write's own ``OSError`` (a full disk, a permission)
+    reaches the caller, and nothing is written if the block raises.
     """
     path = Path(path)
-    with atomic_path(path) as tmp:
-        rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()), send_properties=False)
-        rec.save(str(tmp), default_blueprint=blueprint)
+    rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()), send_properties=False)
+    memory = rec.memory_recording()
+    try:
+        if blueprint is not None:
+            rec.send_blueprint(blueprint, make_active=False, make_default=True)
         rec.send_recording_name(recording_id or path.stem)
-        try:
-            yield rec
-        finally:
-            rec.flush()
-            rec.disconnect()
+        yield rec
+        rec.flush()
+        data = memory.drain_as_bytes()
+    finally:
+        rec.disconnect()
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def time_column(t_s) -> rr.TimeColumn:

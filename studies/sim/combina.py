@@ -81,6 +81,7 @@ from estimators.combina.gates import mahalanobis_gate, scale_gate
 from estimators.combina.translation import ScaledUnits, TranslationalUKF
 from estimators.dynamics import euler_rhs, inertia_from_k, lvlh_dcm, spherical_from_axis
 from estimators.gates import GateDecision
+from estimators.perturbations import get_truth_physics
 from estimators.prior import BodyRatePrior
 from estimators.combina.symmetry import RollSymmetryTest, SymmetryCheck, SymmetryDetector, cloud_in_model_frame
 from perception.simulated_bcpd import RegisteredPose, SimulatedBCPD
@@ -96,7 +97,7 @@ N_RAD_S = SCENARIO.mean_motion_rad_s
 UNITS = ScaledUnits(TU_s=TU_COMBINA_S, LU_m=LU_COMBINA_M)
 TU, LU = UNITS.TU_s, UNITS.LU_m
 K_TARGETS = {"asymmetric": np.array(SCENARIO.k), "symmetric": np.array([np.log(4.0), -np.log(4.0)])}
-#: The meshes rendered for ``--measurements rendered`` (their own inertia ratios then apply).
+#: The meshes rendered for ``lcnav combina --pose-source rendered`` (their own inertia ratios then apply); ``--target`` names them.
 MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
 SYMMETRY_AXIS_T = np.array([0.0, 1.0, 0.0])
 P0_SCALED = 0.1  # eq. 48
@@ -155,6 +156,7 @@ class CombinaConfig:
     prior_error: float = 0.05
     axis_frame: str = "known"
     quick: bool = False
+    truth: str = "torque-free"  #: the truth's physics (:data:`estimators.perturbations.TRUTH_PHYSICS`)
 
     def validate(self) -> None:
         if self.target not in COMBINA_TARGETS:
@@ -171,6 +173,7 @@ class CombinaConfig:
             raise ValueError(f"prior-error must be a relative error in (0, 1), got {self.prior_error!r}")
         if self.axis_frame not in AXIS_FRAMES:
             raise ValueError(f"axis-frame must be one of {'|'.join(AXIS_FRAMES)}, got {self.axis_frame!r}")
+        get_truth_physics(self.truth)  # TruthPhysicsError: "truth: <value>: expected torque-free or perturbed"
         if int(self.seed) != self.seed or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         n = int(np.floor(self.effective_duration_s * self.rate_hz))
@@ -213,12 +216,13 @@ def target_k(target: str, measurements: str = "simulated") -> np.ndarray:
     return K_TARGETS[target].copy()
 
 
-def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None) -> LvlhTruth:
+def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, q_IT0=None, w_T0_rad_s=None, physics: str = "torque-free") -> LvlhTruth:
     """Chaser and target integrated independently (:func:`studies.truth.simulate_truth`), seen in LVLH.
 
     ``k`` overrides the target's inertia ratios (default: :data:`K_TARGETS`);
     ``q_IT0`` and ``w_T0_rad_s`` the target's initial attitude and body rate
-    (default: eq. 47's), e.g. for the random initial conditions of §VII.
+    (default: eq. 47's), e.g. for the random initial conditions of §VII; ``physics`` the truth's
+    (:func:`estimators.perturbations.get_truth_physics`).
     """
     k = K_TARGETS[target].copy() if k is None else np.asarray(k, dtype=float)
     sc = replace(SCENARIO, name=f"COMBINA-{target}", k=(float(k[0]), float(k[1])))
@@ -226,7 +230,7 @@ def simulate_lvlh_truth(target: str, duration_s: float, dt_s: float, k=None, *, 
         sc = replace(sc, q_IT0=tuple(float(v) for v in q_IT0))
     if w_T0_rad_s is not None:
         sc = replace(sc, w_T0_T_rad_s=tuple(float(v) for v in w_T0_rad_s))
-    tr = simulate_truth(sc, duration_s, dt_s)
+    tr = simulate_truth(sc, duration_s, dt_s, physics)
     s, g = tr.servicer, tr.target
     C_LI = lvlh_dcm(s[:, 0:3], s[:, 3:6])
     w_L = np.array([0.0, 0.0, N_RAD_S])
@@ -312,7 +316,7 @@ def run_combina(cfg: CombinaConfig, *, source: MeasurementSource | None = None, 
     dt = 1.0 / cfg.rate_hz
     t = cfg.epochs_s()
     if truth is None:
-        truth = simulate_lvlh_truth(cfg.target, t[-1], dt, k=target_k(cfg.target, cfg.measurements))
+        truth = simulate_lvlh_truth(cfg.target, t[-1], dt, k=target_k(cfg.target, cfg.measurements), physics=cfg.truth)
     if truth.t.shape != t.shape or not np.allclose(truth.t, t):
         raise ValueError("truth epochs do not match the configuration's measurement epochs")
     if source is None:

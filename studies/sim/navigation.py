@@ -209,7 +209,8 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
 
     A run whose filter breaks down (:class:`estimators.filter.DivergenceError`) is
     counted in ``diverged`` and left out of the statistics, which are over the
-    other ``runs``.
+    other ``runs``; ``regularized_draws`` sums the UKF's floored sigma-point draws over them
+    (:attr:`estimators.navigation.NavigationRun.regularizations`).
 
     Returns a flat dict: ``nees_in_band`` (fraction of steps whose ``runs``-mean
     NEES lies in its two-sided ``confidence`` band), ``nees_below``/``nees_above``,
@@ -231,7 +232,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     if not sel.any():
         raise ValueError(f"settling_s ({settling_s} s) must be shorter than the run ({tr.t[-1] - tr.t[0]} s)")
     E, E_all, nis = [], [], {s: [] for s in SOURCES}
-    diverged = 0
+    diverged = regularized = 0
     for i in range(n_runs):
         rng = np.random.default_rng(first_seed + i)
         m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=float(tr.t[1] - tr.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
@@ -244,6 +245,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
         except DivergenceError:
             diverged += 1
             continue
+        regularized += run.regularizations
         E_all.append(nees(run.x, run.P, tr.x, states)[1:])
         E.append(E_all[-1][sel[1:]])
         for s in SOURCES:
@@ -257,6 +259,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     per_run = E.mean(axis=1) / dof
     iv = t_interval(per_run, confidence)
     out = {"filter": filter_name, "scenario": tr.scenario.name, "tuning": tuning.name, "runs": len(E), "diverged": diverged, "dof": dof,
+           "regularized_draws": regularized,
            "settling_s": settling_s, "duration_s": float(tr.t[-1] - tr.t[0]),
            "nees_in_band": float(np.mean((avg >= lo) & (avg <= hi))), "nees_below": float(np.mean(avg < lo)),
            "nees_above": float(np.mean(avg > hi)), "nees_in_band_from_start": float(np.mean((avg_all >= lo) & (avg_all <= hi))),

@@ -1,9 +1,12 @@
 """Truth simulation: servicer and target integrated independently.
 
-Each body follows a Keplerian orbit and torque-free attitude dynamics
-(``estimators.dynamics.integrate_absolute``, DOP853 at 1e-12); the relative
-state of eq. 17 of Renis et al. is derived from the two absolute states at every
-sample, never integrated. This is what the filters are scored against.
+By default (``torque-free``) each body follows a Keplerian orbit and torque-free
+attitude dynamics (``estimators.dynamics.integrate_absolute``, DOP853 at 1e-12):
+what the filters model. The ``perturbed`` truth adds physics they do not model
+(:mod:`estimators.perturbations`: gravity-gradient torque and nutation damping on
+the target, J2 and drag on both orbits). The relative state of eq. 17 of Renis
+et al. is derived from the two absolute states at every sample, never integrated.
+This is what the filters are scored against. Nothing here draws random numbers.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import pandas as pd
 
 from estimators.attitude import dcm_to_quat
 from estimators.dynamics import circular_orbit_state, inertia_from_k, integrate_absolute, lvlh_dcm, relative_state
+from estimators.perturbations import TruthPhysics, get_truth_physics, integrate_perturbed
 from estimators.state import R_I, V_I
 from studies.sim.scenarios import Scenario
 
@@ -46,6 +50,7 @@ class Truth:
     x: np.ndarray  #: (N, 15) ``[q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]``
     J_T_diag: np.ndarray  #: (3,) target inertia, normalised (``B = 1``)
     J_S_diag: np.ndarray  #: (3,) servicer inertia, kg m²
+    physics: TruthPhysics = get_truth_physics("torque-free")  #: the physics integrated
 
     def table(self) -> pd.DataFrame:
         """One row per sample: ``t_s``, the relative state, the servicer state."""
@@ -85,11 +90,15 @@ def _check_positive(name: str, value: float) -> float:
     return v
 
 
-def simulate_truth(scenario: Scenario, duration_s: float, dt_s: float) -> Truth:
+def simulate_truth(scenario: Scenario, duration_s: float, dt_s: float, physics: str | TruthPhysics = "torque-free") -> Truth:
     """Integrate servicer and target independently and derive the relative states.
 
-    Samples at ``0, dt, 2 dt, …`` up to ``duration_s`` inclusive.
+    Samples at ``0, dt, 2 dt, …`` up to ``duration_s`` inclusive. ``physics``: a
+    :class:`estimators.perturbations.TruthPhysics` or its name (``torque-free``,
+    ``perturbed``); the torque-free truth is integrated exactly as before the
+    perturbations existed (same calls, same numbers).
     """
+    physics = get_truth_physics(physics)
     duration_s = _check_positive("duration", duration_s)
     dt_s = _check_positive("dt", dt_s)
     if dt_s > duration_s:
@@ -99,7 +108,11 @@ def simulate_truth(scenario: Scenario, duration_s: float, dt_s: float) -> Truth:
     target0, servicer0 = initial_states(scenario)
     J_T = inertia_from_k(*scenario.k)
     J_S = np.asarray(scenario.J_S_diag, dtype=float)
-    tg = integrate_absolute(target0, t, J_T)
-    sv = integrate_absolute(servicer0, t, J_S)
+    if physics.torque_free:
+        tg = integrate_absolute(target0, t, J_T)
+        sv = integrate_absolute(servicer0, t, J_S)
+    else:
+        tg = integrate_perturbed(target0, t, J_T, physics.body_params("target", target0[R_I]))
+        sv = integrate_perturbed(servicer0, t, J_S, physics.body_params("servicer", servicer0[R_I]))
     x = relative_state(tg.y, sv.y, scenario.k)
-    return Truth(scenario=scenario, t=t, target=tg.y, servicer=sv.y, x=x, J_T_diag=J_T, J_S_diag=J_S)
+    return Truth(scenario=scenario, t=t, target=tg.y, servicer=sv.y, x=x, J_T_diag=J_T, J_S_diag=J_S, physics=physics)

@@ -85,9 +85,9 @@ def test_prior_as_initial_condition_starts_within_its_stated_uncertainty(chain_o
 
 
 @pytest.mark.parametrize("edit, message", [
-    (("cadence_s = 1.0", "cadence_s = 100.0"), "field 'cadence_s' must give at least 20 light-curve samples"),
-    (('target = "atlas-centaur"', 'target = "saturn-v"'), "field 'target' must be one of"),
-    (("proxy_duration_s = 300.0", "proxy_duration_s = 200.0"), "field 'proxy_duration_s' must exceed"),
+    (("cadence_s = 1.0", "cadence_s = 100.0"), "cadence_s 100.0: expected at least 20 light-curve samples"),
+    (('target = "atlas-centaur"', 'target = "saturn-v"'), "target 'saturn-v': expected one of"),
+    (("proxy_duration_s = 300.0", "proxy_duration_s = 200.0"), "proxy_duration_s 200.0: expected more than"),
 ])
 def test_bad_config_one_line_before_anything_is_written(tmp_path, capsys, edit, message):
     text = (Path(__file__).resolve().parents[2] / "studies" / "catalog" / "configs" / "chain.toml").read_text()

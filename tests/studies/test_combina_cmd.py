@@ -12,7 +12,7 @@ from tests.rerun_cli import assert_rrd_verifies
 
 def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
     out = tmp_path / "run"
-    assert main(["combina", "--target", "symmetric", "--measurements", "simulated", "--duration-tu", "2", "--quick", "--seed", "3", "--out", str(out)]) == 0
+    assert main(["combina", "--target", "atlas-centaur", "--pose-source", "simulated", "--duration-tu", "2", "--quick", "--seed", "3", "--out", str(out)]) == 0
     m = json.loads((out / "metrics.json").read_text())
     assert m["symmetry_detected"] and m["mode"] == "axisymmetric"
     for name in ("r", "v", "sigma", "w", "k", "phi", "delta", "gamma_over_a"):
@@ -27,7 +27,10 @@ def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--target", "cube"], "target must be one of asymmetric|symmetric"),
+        (["--target", "cube"], "--target 'cube': expected a body: box-wing or atlas-centaur"),
+        (["--target", "symmetric"], "--target 'symmetric': expected a body: box-wing or atlas-centaur (renamed: --target symmetric is now "
+         "--target atlas-centaur)"),
+        (["--measurements", "rendered"], "--measurements 'rendered': expected --pose-source simulated|rendered (renamed;"),
         (["--rate-hz", "0"], "--rate-hz 0.0: expected a finite number within (0, 10] Hz"),
         (["--rate-hz", "-1"], "--rate-hz -1.0: expected a finite number within (0, 10] Hz"),
         (["--duration-tu", "0"], "--duration-tu 0.0: expected a finite number within (0, 100] TU"),
@@ -47,7 +50,7 @@ def test_bad_input_one_line_nonzero_nothing_written(tmp_path, capsys, args, mess
 def test_rendered_quick_runs_the_whole_chain(tmp_path):
     """Mitsuba stereo -> OpenCV cloud -> BCPD (eqs 3-8) -> both UKFs: at least one measurement accepted."""
     out = tmp_path / "rendered"
-    assert main(["combina", "--target", "asymmetric", "--measurements", "rendered", "--quick", "--seed", "1", "--out", str(out)]) == 0
+    assert main(["combina", "--target", "box-wing", "--pose-source", "rendered", "--quick", "--seed", "1", "--out", str(out)]) == 0
     m = json.loads((out / "metrics.json").read_text())
     assert m["gate_counts"]["by_filter"]["translation"]["accepted"] >= 1
     assert m["gate_counts"]["by_filter"]["attitude"]["accepted"] >= 1

@@ -49,20 +49,20 @@ def test_default_configs_exist_and_name_their_study(name):
 @pytest.mark.parametrize(
     "edit, message",
     [
-        (("n_seeds = 2", "n_seeds = -3"), "field 'n_seeds' must be an integer >= 1 and <= 100000, got -3"),
-        (("n_seeds = 2", "n_seeds = 2.5"), "field 'n_seeds' must be an integer >= 1 and <= 100000, got 2.5"),
-        (("n_seeds = 2", 'n_seeds = "two"'), "field 'n_seeds' must be an integer"),
-        (('scenarios = ["SC1"]', 'scenarios = ["SC9"]'), "field 'scenarios' must be a list of 1 to 10000 item(s), each one of 'SC1'"),
-        (('scenarios = ["SC1"]', "scenarios = []"), "field 'scenarios' must be a list"),
-        (("duration_s = 20.0", "duration_s = 0"), "field 'duration_s' must be a number > 0 and <= 1e+06, got 0"),
-        (("seed = 3", "seed = -1"), "field 'seed' must be an integer >= 0"),
-        (("seed = 3\n", ""), "missing field 'seed'"),
-        (("dt_s = 1.0", "dt_s = 1.0\nspeed = 3"), "unknown field 'speed'"),
-        (('study = "truth"', 'study = "tuning"'), "field 'study' must be 'truth'"),
-        (("rk4_dt_s = 0.05", "rk4_dt_s = 0.3"), "field 'rk4_dt_s' must divide dt_s"),
-        (("n_seeds = 1\n", "n_seeds = 0\n"), "field 'quick.n_seeds' must be an integer >= 1"),
+        (("n_seeds = 2", "n_seeds = -3"), "n_seeds -3: expected an integer >= 1 and <= 100000"),
+        (("n_seeds = 2", "n_seeds = 2.5"), "n_seeds 2.5: expected an integer >= 1 and <= 100000"),
+        (("n_seeds = 2", 'n_seeds = "two"'), "n_seeds 'two': expected an integer"),
+        (('scenarios = ["SC1"]', 'scenarios = ["SC9"]'), "scenarios ['SC9']: expected a list of 1 to 10000 item(s), each one of 'SC1'"),
+        (('scenarios = ["SC1"]', "scenarios = []"), "scenarios []: expected a list"),
+        (("duration_s = 20.0", "duration_s = 0"), "duration_s 0: expected a number > 0 and <= 1e+06"),
+        (("seed = 3", "seed = -1"), "seed -1: expected an integer >= 0"),
+        (("seed = 3\n", ""), "seed missing: expected an integer"),
+        (("dt_s = 1.0", "dt_s = 1.0\nspeed = 3"), "unknown field 'speed': expected one of"),
+        (('study = "truth"', 'study = "tuning"'), "study 'tuning': expected 'truth'"),
+        (("rk4_dt_s = 0.05", "rk4_dt_s = 0.3"), "rk4_dt_s 0.3: expected a divisor of dt_s"),
+        (("n_seeds = 1\n", "n_seeds = 0\n"), "quick.n_seeds 0: expected an integer >= 1"),
         (("[quick]\n", "[quick\n"), "not valid TOML"),
-        (("dt_s = 1.0", "dt_s = true"), "field 'dt_s' must be a number > 0 and <= 1e+06, got True"),
+        (("dt_s = 1.0", "dt_s = true"), "dt_s True: expected a number > 0 and <= 1e+06"),
     ],
 )
 def test_bad_config_one_line_naming_the_field(tmp_path, capsys, edit, message):
@@ -80,7 +80,7 @@ def test_bad_config_one_line_naming_the_field(tmp_path, capsys, edit, message):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["nosuch"], "unknown study 'nosuch'; known studies: truth"),
+        (["nosuch"], "unknown study 'nosuch': expected one of the known studies: truth"),
         (["truth", "--workers", "0"], "--workers 0: expected an integer within [1, "),
         (["truth", "--scheduler", "localhost:8786"], "--scheduler 'localhost:8786': expected the form tcp://HOST:PORT"),
         (["truth", "--config", "/nonexistent/x.toml"], "--config '/nonexistent/x.toml': no such file"),
@@ -101,7 +101,7 @@ def test_cli_process_prints_one_line_and_no_traceback(tmp_path, lcnav_env):
     res = subprocess.run([sys.executable, "-m", "studies.cli", "study", "truth", "--config", str(cfg), "--out", str(tmp_path / "o")],
                          capture_output=True, text=True, env=lcnav_env)
     assert res.returncode != 0
-    assert res.stderr.strip().splitlines() == ["lcnav: error: bad.toml: field 'n_seeds' must be an integer >= 1 and <= 100000, got -3"]
+    assert res.stderr.strip().splitlines() == ["lcnav: error: bad.toml: n_seeds -3: expected an integer >= 1 and <= 100000"]
 
 
 def test_field_declarations():
@@ -110,5 +110,5 @@ def test_field_declarations():
     f = Field("float", "x", ge=0, le=1)
     assert f.check(1, "x", "w") == 1.0 and isinstance(f.check(1, "x", "w"), float)
     for bad in [True, -0.1, 1.5, float("nan"), "0.5", None]:
-        with pytest.raises(ConfigError, match=r"field 'x' must be a number >= 0 and <= 1"):
+        with pytest.raises(ConfigError, match=r"x .*: expected a number >= 0 and <= 1"):
             f.check(bad, "x", "w")

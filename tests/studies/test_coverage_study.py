@@ -101,7 +101,7 @@ def test_fast_tumbler_converges_within_a_binomial_bound(tmp_path, rate_rad_s):
     from studies.engine.sweep import make_specs
 
     common = {"measurement_rate_hz": 0.33, "horizon_orbits": 0.03, "k_range": [-1.5, 1.5], "k_physical": True, "n_last": 10,
-              "converged_confidence": 0.99, "converged_rule": "joint", "record": False}
+              "converged_confidence": 0.99, "converged_rule": "joint", "record": False, "truth": "torque-free"}
     specs = make_specs(12, ((f"w{rate_rad_s}-ic{i}", {"rate_level_rad_s": rate_rad_s, "ic_index": i, **common}) for i in range(N_FAST)))
     out = [execute(s, tmp_path) for s in specs]
     n_conv = sum(o["converged"] for o in out)

@@ -135,15 +135,15 @@ def prepare_root(root: Path) -> None:
 COMMANDS = {
     # command: (valid cheap argv, {option: kind})
     "simulate": (["simulate", "--duration", "20", "--dt", "1", "--out", "{out}"],
-                 {"--scenario": "text", "--duration": "number", "--dt": "number", "--seed": "number", "--out": "path"}),
+                 {"--scenario": "text", "--duration": "number", "--dt": "number", "--seed": "number", "--truth": "text", "--out": "path"}),
     "run": (["run", "--duration", "30", "--dt", "1", "--out", "{out}"],
             {"--scenario": "text", "--filter": "text", "--duration": "number", "--dt": "number", "--prior": "text", "--prior-error": "number",
              "--prior-rate-deg-s": "text", "--prior-axis": "text", "--proxy-mode": "text", "--tuning": "text", "--p0-diag": "text",
              "--fault": "text", "--runs": "number", "--seed": "number", "--noise": "text", "--sigma-q-rad": "number", "--sigma-r-m": "number",
              "--gate-confidence": "number", "--gate-start": "number", "--reacquire-window": "number", "--out": "path",
-             "--measurements": "path", "--prior-json": "path"}),
+             "--measurements": "path", "--prior-json": "path", "--truth": "text"}),
     "combina": (["combina", "--duration-tu", "0.1", "--out", "{out}"],
-                {"--target": "text", "--measurements": "text", "--duration-tu": "number", "--rate-hz": "number", "--seed": "number",
+                {"--target": "text", "--pose-source": "text", "--duration-tu": "number", "--rate-hz": "number", "--seed": "number",
                  "--prior": "text", "--prior-error": "number", "--axis-frame": "text", "--out": "path"}),
     "render": (["lightcurve", "render", "--duration", "40", "--cadence", "1", "--out", "{root}/lc.ecsv"],
                {"--target": "text", "--axis": "text", "--rate-deg-s": "number", "--duration": "number", "--cadence": "number", "--seed": "number",

@@ -72,10 +72,10 @@ def test_unwritable_out(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("edit, needle", [
-    (("n_seeds = 10 ", "n_seeds = 1000000000000 "), "field 'n_seeds' must be an integer >= 1 and <= 100000, got 1000000000000"),
-    (("duration_s = 300.0", "duration_s = 1e12"), "field 'duration_s' must be a number > 0 and <= 1e+06, got 1000000000000.0"),
-    (("dt_s = 1.0 ", "dt_s = 0.0001 "), "fields 'duration_s' / 'dt_s' = 300 / 0.0001 give 3e+06 steps; expected at most 1000000"),
-    (("duration_s = 300.0", "duration_s = inf"), "field 'duration_s' must be a number > 0 and <= 1e+06, got inf"),
+    (("n_seeds = 10 ", "n_seeds = 1000000000000 "), "n_seeds 1000000000000: expected an integer >= 1 and <= 100000"),
+    (("duration_s = 300.0", "duration_s = 1e12"), "duration_s 1000000000000.0: expected a number > 0 and <= 1e+06"),
+    (("dt_s = 1.0 ", "dt_s = 0.0001 "), "duration_s / dt_s 300 / 0.0001 (3e+06 steps): expected at most 1000000 steps"),
+    (("duration_s = 300.0", "duration_s = inf"), "duration_s inf: expected a number > 0 and <= 1e+06"),
 ])
 def test_huge_config_values_are_refused_at_once(tmp_path, capsys, edit, needle):
     text = default_config_path("truth").read_text()
@@ -100,7 +100,7 @@ def test_int_of_inf_is_a_bound_not_an_overflow(tmp_path, capsys):
     ('{"rate_rad_s": [1], "rate_sigma_rad_s": 0.01}', "rate_rad_s [1]: expected a finite number"),
     ('{"rate_rad_s": 0.1, "rate_sigma_rad_s": true}', "rate_sigma_rad_s True: expected a finite number"),
     ('{"rate_rad_s": 1e308, "rate_sigma_rad_s": 0.01}', "rate_rad_s 1e+308: expected"),
-    ('[0.1, 0.01]', "holds a JSON list; expected an object with rate_rad_s and rate_sigma_rad_s"),
+    ('[0.1, 0.01]', "holds a JSON list: expected an object with rate_rad_s and rate_sigma_rad_s"),
     ('[' * 100000 + ']' * 100000, "not JSON (RecursionError"),
     ('{"rate_rad_s": NaN, "rate_sigma_rad_s": 0.01}', "rate_rad_s nan: expected a finite number"),
 ])
@@ -158,10 +158,10 @@ def test_run_option_bounds(tmp_path, capsys, flag, value, needle):
 
 
 @pytest.mark.parametrize("content, needle", [
-    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n", "holds 0 row(s); expected at least 2 measurements"),
+    ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n", "holds 0 row(s): expected at least 2 measurements"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,\n", "row 1 has a NaN, Inf or empty cell"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n0,1,0,0,0,1,2,3\n1,1,0,0,0,1,2,0x10\n",
-     "column r_ST_T_z_m holds '0x10'; expected decimal numbers"),
+     "column r_ST_T_z_m holds '0x10': expected decimal numbers"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n5,1,0,0,0,1,2,3\n5,1,0,0,0,1,2,3\n", "expected strictly increasing times"),
     ("t_s,q_TS_0,q_TS_1,q_TS_2,q_TS_3,r_ST_T_x_m,r_ST_T_y_m,r_ST_T_z_m\n500,1,0,0,0,1,2,3\n501,1,0,0,0,1,2,3\n",
      "expected measurements within the run, 0 to 30 s"),
@@ -225,7 +225,8 @@ def test_render_leaves_no_ecsv_when_the_recording_fails(tmp_path, capsys, monkey
     out, rrd = tmp_path / "lc.ecsv", tmp_path / "lc.rrd"
     code, err = run_cli(capsys, ["lightcurve", "render", "--target", "sphere", "--duration", "40", "--cadence", "2", "--resolution", "4",
                                  "--variant", "scalar_rgb", "--out", out, "--record", rrd])
-    assert code == 2 and err[-1] == f"lcnav: error: {rrd}: No space left on device"  # after the renderer's progress lines
+    # after the renderer's progress lines; the folder named (issue 29)
+    assert code == 2 and err[-1] == f"lcnav: error: {tmp_path}: no space left on device: expected a folder on a file system with free space"
     assert list(tmp_path.iterdir()) == []  # neither the light curve nor a temporary file
 
 
@@ -241,10 +242,10 @@ def test_failure_while_writing_keeps_the_old_folder_whole(tmp_path, capsys, monk
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(simulate_cmd, "record_truth", broken)
-    one_error(capsys, ["simulate", "--duration", "20", "--out", out], "No space left on device")
+    one_error(capsys, ["simulate", "--duration", "20", "--out", out], f"{out}: no space left on device")
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # old result intact, still marked complete; no staging left
     new = tmp_path / "new"
-    one_error(capsys, ["simulate", "--duration", "20", "--out", new], "No space left on device")
+    one_error(capsys, ["simulate", "--duration", "20", "--out", new], f"{new}: no space left on device")
     assert not new.exists()  # a folder the failed command created is removed again
 
 

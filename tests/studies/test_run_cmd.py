@@ -129,3 +129,71 @@ def test_navigate_draws_and_filters_with_one_pose_noise():
     wrong = PoseNoise()
     run, _ = navigate(tr, dataclasses.replace(setup, filter_noise=wrong), np.random.default_rng(3))
     assert run.pose_noise == wrong
+
+
+def _simulated_files(tmp_path, dt_truth="0.5"):
+    """``lcnav simulate`` of SC1 (70 s at ``dt_truth``) and a measurement file drawn from it at 1 s (eqs 33–34 noise)."""
+    from perception.simulated_pose import simulate_pose_measurements
+
+    sim = tmp_path / f"sim{dt_truth}"
+    assert main(["simulate", "--scenario", "SC1", "--duration", "70", "--dt", dt_truth, "--out", str(sim)]) == 0
+    truth = pd.read_parquet(sim / "truth.parquet")
+    on_grid = np.isclose(truth["t_s"] % 1.0, 0.0) | np.isclose(truth["t_s"] % 1.0, 1.0)
+    x = truth.loc[on_grid, [c for c in truth.columns if c.startswith(("q_TS", "w_ST", "r_ST", "v_ST", "k"))]].to_numpy()
+    t = truth.loc[on_grid, "t_s"].to_numpy()
+    m = simulate_pose_measurements(t, x, np.random.default_rng(5), tau_s=1.0, sigma_q_rad=0.03, sigma_r_m=0.2)
+    meas = tmp_path / "meas.parquet"
+    cols = {"t_s": m.t, **{f"q_TS_{i}": m.q_TS[:, i] for i in range(4)}, **{f"r_ST_T_{a}_m": m.r_ST_T[:, j] for j, a in enumerate("xyz")}}
+    pd.DataFrame(cols).to_parquet(meas, index=False)
+    return sim / "truth.parquet", meas
+
+
+def test_measurement_file_is_scored_only_against_its_truth_file(tmp_path, capsys):
+    """A user's measurements: no truth-based metric without --truth-file; with it, the file's truth is the one scored against."""
+    truth_file, meas = _simulated_files(tmp_path)
+    base = ["run", "--scenario", "SC1", "--duration", "70", "--dt", "1", "--sigma-q-rad", "0.03", "--sigma-r-m", "0.2", "--measurements", str(meas)]
+    capsys.readouterr()
+    assert main([*base, "--out", str(tmp_path / "blind")]) == 0
+    printed = capsys.readouterr().out
+    m = json.loads((tmp_path / "blind" / "metrics.json").read_text())
+    for key in ("components", "filter_components", "components_mean_over_runs", "nees", "nees_fraction_in_95"):
+        assert key not in m
+    assert set(m["nis_fraction_in_95"]) == {"attitude", "position"} and set(m["gate_rejection_rate"]) == {"attitude", "position"}
+    assert m["config"]["scored_against"] is None
+    assert "NEES" not in printed and "RMSE" not in printed and "NIS in band" in printed
+    assert all(0.0 <= f <= 1.0 for f in m["nis_fraction_in_95"].values())  # 11 steps after the 60 s settling
+    df = pd.read_parquet(tmp_path / "blind" / "states.parquet")
+    assert not any(c.startswith("true_") for c in df.columns) and "nis_attitude" in df.columns
+    assert "/truth/" not in rerun("rrd", "print", tmp_path / "blind" / "run.rrd").stdout
+
+    assert main([*base, "--truth-file", str(truth_file), "--out", str(tmp_path / "scored")]) == 0
+    m = json.loads((tmp_path / "scored" / "metrics.json").read_text())
+    assert m["nees"]["dof"] == 12 and m["config"]["scored_against"] == str(truth_file)
+    df = pd.read_parquet(tmp_path / "scored" / "states.parquet")
+    truth = pd.read_parquet(truth_file).set_index("t_s")
+    # the true_* columns are the truth file's rows at the filter's times (every second row of a 0.5 s truth)
+    np.testing.assert_array_equal(df["true_r_ST_T_y_m"].to_numpy(), truth.loc[df["t_s"], "r_ST_T_y_m"].to_numpy())
+    err_r = np.linalg.norm(df[[f"est_r_ST_T_{a}_m" for a in "xyz"]].to_numpy() - df[[f"true_r_ST_T_{a}_m" for a in "xyz"]].to_numpy(), axis=1)
+    tc = m["components"]["r"]["convergence_time_s"]
+    if tc is not None:
+        assert m["components"]["r"]["steady_state_rmse"] == pytest.approx(np.sqrt(np.mean(err_r[df["t_s"] >= tc] ** 2)))
+
+
+def test_truth_file_at_other_times_is_refused(tmp_path, capsys):
+    truth_file, meas = _simulated_files(tmp_path)
+    other = tmp_path / "other"
+    assert main(["simulate", "--scenario", "SC1", "--duration", "70", "--dt", "0.7", "--out", str(other)]) == 0
+    other = other / "truth.parquet"
+    capsys.readouterr()
+    out = tmp_path / "out"
+    code = main(["run", "--scenario", "SC1", "--duration", "70", "--dt", "1", "--measurements", str(meas), "--truth-file", str(other), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and not out.exists(), err
+    assert err.startswith("lcnav: error: --truth-file") and "expected a row at every filter time 0, 1, ..., 70 s" in err, err
+    # a truth file without measurements, and another scenario's truth, are refused the same way
+    for extra, message in ((["--truth-file", str(truth_file)], "expected it with --measurements"),
+                           (["--scenario", "SC3", "--measurements", str(meas), "--truth-file", str(truth_file)],
+                            "scenario 'SC1': expected the run's --scenario SC3")):
+        code = main(["run", "--scenario", "SC1", "--duration", "70", "--dt", "1", *extra, "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.startswith("lcnav: error: ") and message in err and not out.exists(), err

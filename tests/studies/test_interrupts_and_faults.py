@@ -1,0 +1,355 @@
+"""Issue 29 (and issue 30's CLI items): Ctrl-C, a full disk, unbounded inputs, one message form, locks, timeouts.
+
+Each category has a fault injected as it happens for real: SIGINT to the process
+GROUP (``os.killpg``, as a terminal sends Ctrl-C) of a process started in its own
+session; a full file system (a 64 KiB tmpfs when this process may mount one,
+else ENOSPC injected at the write layer); oversized and absurd inputs. Messages
+are checked against the one form ``lcnav: error: <value or file>: expected <form>``.
+"""
+
+import fcntl
+import os
+import pty
+import re
+import select
+import signal
+import struct
+import subprocess
+import sys
+import termios
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from studies.cli import COMMANDS, load_command, main
+from studies.engine import io as sio
+from studies.engine.interrupt import EXIT_ABORTED
+
+#: Longest wait for a subprocess's next output or exit (on a machine loaded 10x over), s: a guard against a hang, not a timing.
+HANG_S = 600.0
+#: The one message form of a refusal (issue 29).
+ONE_FORM = re.compile(r"^lcnav: error: \S.*: expected \S.*$")
+
+
+def refusal(capsys, argv) -> str:
+    """Run ``lcnav ARGV`` in this process: exit 2 and ONE stderr line of the one form; that line."""
+    code = main([str(a) for a in argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and ONE_FORM.match(err[0]), (code, err)
+    assert "np.float64" not in err[0] and "Traceback" not in err[0]
+    return err[0]
+
+
+def light_curve_csv(path: Path, mags) -> Path:
+    path.write_text("time,mag\n" + "".join(f"{k},{m}\n" for k, m in enumerate(mags)))
+    return path
+
+
+# ---------------------------------------------------------------- Ctrl-C: SIGINT to the process group
+
+
+def _start(argv, env) -> subprocess.Popen:
+    """``lcnav ARGV`` in a new session (its own process group), its stderr a terminal (a pty) as at a shell prompt."""
+    tty, child_tty = pty.openpty()
+    fcntl.ioctl(child_tty, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # a terminal's size (tqdm draws no bar on 0 rows)
+    proc = subprocess.Popen([sys.executable, "-m", "studies.cli", *map(str, argv)], start_new_session=True, env=env,
+                            stdout=subprocess.DEVNULL, stderr=child_tty)
+    os.close(child_tty)
+    proc.tty = tty
+    return proc
+
+
+def _read(proc: subprocess.Popen) -> bytes:
+    """What the command wrote to its terminal since the last read; b"" once every process of it has closed it."""
+    ready, _, _ = select.select([proc.tty], [], [], HANG_S)  # a bound against a hang, not a timing
+    assert ready, "no output and no exit"
+    try:
+        return os.read(proc.tty, 65536)
+    except OSError:  # EIO: the terminal's other end is closed
+        return b""
+
+
+def _wait_for(proc: subprocess.Popen, needle: bytes) -> bytes:
+    """Read the terminal until ``needle`` appears (the command's progress bar: it is running); what was read."""
+    seen = b""
+    while needle not in seen:
+        chunk = _read(proc)
+        assert chunk, f"the command ended before {needle!r}: {seen.decode(errors='replace')}"
+        seen += chunk
+    return seen
+
+
+def _interrupt(proc: subprocess.Popen, seen: bytes) -> list[str]:
+    """Ctrl-C as a terminal sends it (SIGINT to the group); the exit status checked, the terminal's lines returned."""
+    os.killpg(proc.pid, signal.SIGINT)
+    while chunk := _read(proc):
+        seen += chunk
+    proc.wait(timeout=HANG_S)
+    os.close(proc.tty)
+    text = seen.decode(errors="replace").replace("\x1b[K", "")  # erase-in-line: lcnav clears an unfinished progress bar
+    lines = [line.strip() for line in text.replace("\r", "\n").splitlines() if line.strip()]
+    assert proc.returncode == EXIT_ABORTED, (proc.returncode, lines)
+    assert lines[-1] == "lcnav: aborted" and [line for line in lines if line.startswith("lcnav:")] == ["lcnav: aborted"], lines
+    assert not any("Traceback" in line or "KeyboardInterrupt" in line for line in lines), lines
+    assert _alive_in_group(proc.pid) == []  # no process of the group is left running: the Dask workers were stopped too
+    return lines
+
+
+def _alive_in_group(pgid: int) -> list[str]:
+    """The processes of group ``pgid`` that are not dead (zombies waiting for their new parent to reap them are dead)."""
+    alive = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+        except OSError:  # ended meanwhile
+            continue
+        state, _, pgrp = text[text.rindex(")") + 2:].split()[:3]  # after "pid (comm)": state, ppid, pgrp
+        if int(pgrp) == pgid and state not in "ZX":
+            alive.append(text[: text.rindex(")") + 1])
+    return alive
+
+
+def test_ctrl_c_during_run_exits_130_and_a_new_run_is_exact(tmp_path, lcnav_env):
+    out = tmp_path / "out"
+    proc = _start(["run", "--duration", "300", "--runs", "1000", "--out", out], lcnav_env)
+    _interrupt(proc, _wait_for(proc, b"lcnav run"))
+    assert not out.exists()  # the folder it would have created: not there, nothing that looks finished
+    # the same folder afterwards gives exactly what a never-interrupted folder gets
+    argv = ["run", "--duration", "40", "--seed", "4"]
+    assert main([*argv, "--out", str(out)]) == 0 and main([*argv, "--out", str(tmp_path / "fresh")]) == 0
+    assert (out / "metrics.json").read_bytes() == (tmp_path / "fresh" / "metrics.json").read_bytes()
+    assert sio.is_complete(out)["command"] == "run"
+
+
+@pytest.mark.slow
+def test_ctrl_c_during_a_study_stops_its_workers_and_resumes_exactly(quick_truth, tmp_path, lcnav_env, capsys):
+    """``study tuning --quick`` interrupted once its Dask cluster runs; ``study truth --quick`` resumed after Ctrl-C equals the uninterrupted one."""
+    tuning = tmp_path / "tuning"
+    proc = _start(["study", "tuning", "--quick", "--workers", "2", "--out", tuning], lcnav_env)
+    _interrupt(proc, _wait_for(proc, b"tuning:"))
+    assert not (tuning / sio.COMPLETE_FILE).exists() and not (tuning / sio.LOCK_FILE).exists()
+
+    out = tmp_path / "truth"
+    proc = _start(["study", "truth", "--quick", "--workers", "2", "--out", out], lcnav_env)
+    _interrupt(proc, _wait_for(proc, b"truth:"))
+    assert not (out / sio.COMPLETE_FILE).exists()
+    assert main(["study", "truth", "--quick", "--workers", "2", "--out", str(out)]) == 0
+    capsys.readouterr()
+    resumed, reference = (pd.read_parquet(d / "runs.parquet").drop(columns="elapsed_s") for d in (out, quick_truth))
+    pd.testing.assert_frame_equal(resumed, reference)
+    assert sio.is_complete(out)["command"] == "study"
+
+
+# ---------------------------------------------------------------- a full disk
+
+
+NO_SPACE = r": no space left on device: expected a folder on a file system with free space$"
+
+
+@pytest.fixture
+def tiny_fs(tmp_path):
+    """A 64 KiB tmpfs (needs root and a kernel that lets this process mount; skipped otherwise)."""
+    mnt = tmp_path / "mnt"
+    mnt.mkdir()
+    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True)
+    if res.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {res.stderr.decode(errors='replace').strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.mark.parametrize("command", [
+    ["run", "--duration", "60"],
+    ["lightcurve", "render", "--target", "sphere", "--duration", "40", "--cadence", "2", "--resolution", "4", "--variant", "scalar_rgb",
+     "--record", "{out}/lc.rrd"],
+])
+def test_full_disk_one_line_naming_the_folder_and_nothing_partial(tiny_fs, lcnav_env, command):
+    """On a real full file system, also when rerun would write from its own thread: one line, exit 2, the tmpfs left empty."""
+    out = tiny_fs / "out"
+    if command[0] == "lightcurve":
+        out.mkdir()
+        argv = [c.format(out=out) for c in command] + ["--out", str(out / "lc.ecsv")]
+    else:
+        argv = [*command, "--out", str(out)]
+    (tiny_fs / "ballast").write_bytes(b"\0" * 40 * 1024)  # 24 KiB left: less than a run.rrd or a light curve's recording
+    res = subprocess.run([sys.executable, "-m", "studies.cli", *argv], capture_output=True, text=True, env=lcnav_env, timeout=600)
+    errors = [line for line in res.stderr.replace("\r", "\n").splitlines() if "lcnav: error" in line or "ERROR" in line or "Traceback" in line]
+    assert res.returncode == 2 and len(errors) == 1, res.stderr
+    assert re.match(rf"^lcnav: error: {re.escape(str(out))}{NO_SPACE}", errors[0]), errors
+    assert "re_log_encoding" not in res.stderr
+    left = sorted(p.relative_to(tiny_fs).as_posix() for p in tiny_fs.rglob("*"))
+    assert left == (["ballast", "out"] if command[0] == "lightcurve" else ["ballast"]), left
+
+
+def test_full_disk_inside_a_table_writer(tmp_path, capsys, monkeypatch):
+    """pyarrow's full-disk error has no errno, only "[errno 28]" in its text: still the folder and "no space left"."""
+    def full(self, path, *args, **kwargs):
+        Path(path).write_bytes(b"PAR1 half")
+        raise OSError("[Errno 28] Error writing bytes to file. Detail: [errno 28] No space left on device")
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    out = tmp_path / "out"
+    line = refusal(capsys, ["simulate", "--duration", "10", "--out", out])
+    assert re.match(rf"^lcnav: error: {re.escape(str(out))}{NO_SPACE}", line)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ---------------------------------------------------------------- unbounded and absurd inputs
+
+
+def test_too_many_rows_are_refused_before_the_prior(tmp_path, capsys, monkeypatch):
+    from lightcurves import prior as prior_module
+    from studies.cli.lightcurve import MAX_SAMPLES
+
+    monkeypatch.setattr(prior_module, "extract_spin_prior", lambda *a, **k: pytest.fail("the prior ran on an oversized input"))
+    path = light_curve_csv(tmp_path / "big.csv", 9 + 0.3 * np.sin(np.arange(MAX_SAMPLES + 1)))
+    assert refusal(capsys, ["lightcurve", "prior", path]) == f"lcnav: error: big.csv: {MAX_SAMPLES + 1} samples: expected at most {MAX_SAMPLES} samples " \
+                                                             "(bin or split a longer light curve)"
+
+
+@pytest.mark.parametrize("bad", ["1e300", "-1e300", "1e51"])
+def test_absurd_magnitudes_are_refused(tmp_path, capsys, bad):
+    mags = [f"{9 + 0.3 * np.sin(k):.4f}" for k in range(29)] + [bad]
+    line = refusal(capsys, ["lightcurve", "prior", light_curve_csv(tmp_path / "lc.csv", mags)])
+    assert line == f"lcnav: error: lc.csv: mag {float(bad)} (sample 29): expected magnitudes within ±50"
+
+
+# ---------------------------------------------------------------- one message form
+
+
+def _config(tmp_path, text: str) -> Path:
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    return path
+
+
+def _corrupt_resume(tmp: Path) -> tuple[list, str]:
+    """A study folder whose first run's metrics.json was damaged (a disk error, an editor): resuming names the file."""
+    from studies.engine.registry import get_study
+
+    truth = get_study("truth")
+    metrics = tmp / "study" / "runs" / truth.expand(truth.load(quick=True))[0].run_id / "metrics.json"
+    metrics.parent.mkdir(parents=True)
+    metrics.write_text('{"run_id": "x",\n "seed": 1,\n "params": {,}}')
+    return ["study", "truth", "--quick", "--workers", "1", "--out", tmp / "study"], f"{metrics}: not JSON (JSONDecodeError"
+
+
+CASES = {
+    "config field": lambda tmp: (["study", "truth", "--config", _config(tmp, "study = 'truth'\nseed = -3\n"), "--out", tmp / "o"],
+                                     "c.toml: seed -3: expected an integer >= 0"),
+    "empty config": lambda tmp: (["study", "truth", "--config", _config(tmp, ""), "--out", tmp / "o"], "c.toml: empty: expected a TOML config"),
+    "too few samples": lambda tmp: (["lightcurve", "prior", light_curve_csv(tmp / "lc.csv", [9.0, 9.5])],
+                                        "mag of 2 sample(s): expected at least 20 samples"),
+    "constant curve": lambda tmp: (["lightcurve", "prior", light_curve_csv(tmp / "lc.csv", [8.0] * 30)],
+                                       "mag constant at 8 over all 30 samples (zero variance): expected a varying mag"),
+    "corrupt metrics.json": _corrupt_resume,
+    "symlink loop": lambda tmp: (["lightcurve", "prior", _loop(tmp)], "expected a file, not a loop of symbolic links"),
+    "missing --out": lambda tmp: (["run", "--duration", "10"], "--out: missing: expected it given"),
+    "misspelt option": lambda tmp: (["run", "--durration", "10"], "--durration: expected one of the options listed by `lcnav run --help` "
+                                                                      "(did you mean --duration?)"),
+    "misspelt command": lambda tmp: (["rnu"], "'rnu': expected a command: simulate, study"),
+    "old combina spelling": lambda tmp: (["combina", "--measurements", "rendered", "--out", tmp / "o"],
+                                             "--measurements 'rendered': expected --pose-source simulated|rendered"),
+}
+
+
+def _loop(tmp: Path) -> Path:
+    (tmp / "a.csv").symlink_to(tmp / "b.csv")
+    (tmp / "b.csv").symlink_to(tmp / "a.csv")
+    return tmp / "a.csv"
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_every_refusal_has_the_one_form(tmp_path, capsys, case):
+    argv, needle = CASES[case](tmp_path)
+    before = sorted(tmp_path.rglob("*"))
+    line = refusal(capsys, argv)
+    assert needle in line, line
+    assert sorted(tmp_path.rglob("*")) == before  # nothing written
+
+
+def test_a_numerical_failure_is_internal_with_the_seed(tmp_path, capsys, monkeypatch):
+    """numpy's LinAlgError is a ValueError but not bad input: exit 1, "internal error", the run's seed; nothing written."""
+    from studies.cli import run as run_cmd
+
+    def failing(setup):
+        raise np.linalg.LinAlgError("11-th leading minor of the array is not positive definite")
+
+    monkeypatch.setattr(run_cmd, "_monte_carlo", failing)
+    out = tmp_path / "out"
+    assert main(["run", "--duration", "20", "--seed", "7", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["lcnav: error: internal error LinAlgError: 11-th leading minor of the array is not positive definite (seed 7) "
+                   "(a bug in lcnav; please report it with the command line)"]
+    assert not out.exists()
+
+
+# ---------------------------------------------------------------- locks and timeouts
+
+
+def test_render_to_a_bare_file_takes_a_lock(tmp_path, capsys):
+    out = tmp_path / "lc.ecsv"
+    with sio.file_lock(out):
+        code = main(["lightcurve", "render", "--target", "sphere", "--duration", "40", "--cadence", "2", "--resolution", "4",
+                     "--variant", "scalar_rgb", "--out", str(out)])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and err[-1] == f"lcnav: error: '{out}': another lcnav is writing to it (pid {os.getpid()}): expected a path no other " \
+                                         "lcnav is using (wait for it to finish or choose another)"
+        assert not out.exists()
+    assert list(tmp_path.iterdir()) == []  # the lock file went with the lock
+
+
+def test_unreachable_scheduler_is_refused_after_the_given_timeout(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    line = refusal(capsys, ["study", "truth", "--quick", "--scheduler", f"tcp://127.0.0.1:{port}", "--connect-timeout-s", "1", "--out", tmp_path / "o"])
+    assert f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered within 1 s" in line and "--connect-timeout-s" in line
+    refusal(capsys, ["study", "truth", "--connect-timeout-s", "0", "--out", tmp_path / "o"])
+    assert not (tmp_path / "o").exists()
+
+
+# ---------------------------------------------------------------- a CLI that starts fast (issue 30)
+
+
+HEAVY = ("pandas", "rerun", "numba", "mitsuba", "scipy", "astropy", "distributed", "studies.engine.registry", "estimators.navigation")
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"]])
+def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
+    code = ("import sys; from studies.cli import main; code = main(sys.argv[1:]); "
+            f"print(sorted(m for m in {HEAVY!r} if m in sys.modules)); sys.exit(code)")
+    res = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, env=lcnav_env, timeout=120)
+    assert res.stdout.strip().splitlines()[-1] == "[]", res.stdout
+    if argv == ["--version"]:
+        from studies.cli import version
+
+        assert res.returncode == 0 and res.stdout.splitlines()[0] == f"lcnav {version()}"
+    elif argv == ["--help"]:
+        assert res.returncode == 0 and all(f"{name} " in res.stdout for name in COMMANDS)
+    else:
+        assert res.returncode == 2 and ONE_FORM.match(res.stderr.strip())
+
+
+def test_help_listing_is_each_command_docstring_and_flags_take_no_value(tmp_path, capsys):
+    for name, (_, summary) in COMMANDS.items():
+        assert load_command(name).help.strip().splitlines()[0] == summary, name
+    for argv in (["study", "--help"], ["combina", "--help"], ["lightcurve", "render", "--help"], ["--help"]):
+        assert main(argv) == 0
+        text = capsys.readouterr().out
+        assert "--help" in text and "<bool>" not in text, text
+        if argv[0] == "study":  # the flag's row: its name, then its help, no value in between
+            assert re.search(r"--quick\s+Small size", text), text
+
+
+def test_run_out_is_required_before_any_work(capsys, monkeypatch):
+    from studies.cli import run as run_cmd
+
+    monkeypatch.setattr(run_cmd, "simulate_truth", lambda *a, **k: pytest.fail("the truth was simulated without --out"))
+    assert refusal(capsys, ["run", "--duration", "3000"]).startswith("lcnav: error: --out: missing: expected it given (Output folder")
