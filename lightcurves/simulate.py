@@ -51,6 +51,17 @@ class SimulatedLightCurve:
     variant: str  #: Mitsuba variant that rendered it
 
 
+def _start_phase(phase_rad: float, phase_epoch: Time | None, rate_rad_s: float, arc_start: Time) -> float:
+    """The phase at the arc's start: ``phase_rad`` there, or carried from ``phase_epoch`` by ``rate · Δt``.
+
+    :func:`geometry.pole_quaternion`'s phase turns the body about the pole, so a steady spin advances it by
+    ``ω Δt`` (Δt in TT seconds, here up to decades: ~1e9 s × ω keeps ~1e-7 rad in double precision).
+    """
+    if phase_epoch is None:
+        return float(phase_rad)
+    return float(np.mod(phase_rad + rate_rad_s * (arc_start - phase_epoch).to_value(u.s), 2.0 * np.pi))
+
+
 def simulate_lightcurve(
     target: Target,
     *,
@@ -64,6 +75,7 @@ def simulate_lightcurve(
     site: EarthLocation = DEFAULT_SITE,
     pole_I=None,
     phase_rad: float | None = None,
+    phase_epoch: Time | None = None,
     telescope: Telescope = Telescope(),
     exposure_s: float | None = None,
     noise: bool = True,
@@ -102,7 +114,7 @@ def simulate_lightcurve(
     pole_I = np.asarray(pole_I, dtype=float) / np.linalg.norm(pole_I)
     if phase_rad is None:
         phase_rad = float(rng.uniform(0.0, 2.0 * np.pi))
-    q0 = pole_quaternion(axis_T, pole_I, phase_rad)
+    q0 = pole_quaternion(axis_T, pole_I, _start_phase(phase_rad, phase_epoch, rate_rad_s, epoch + start * u.s))
     q_IT, w_T = spin_attitude(q0, rate_rad_s * axis_T, target.J_diag, t_rel)
     C_TI = np.swapaxes(quat_to_dcm(q_IT), -1, -2)
     sun_T = np.einsum("nij,nj->ni", C_TI, obs.sun_dir_I)
@@ -145,6 +157,7 @@ def simulate_lightcurve(
         "truth_rate_deg_s": float(np.degrees(rate_rad_s)),
         "truth_pole_I": pole_I.tolist(),
         "truth_phase_rad": float(phase_rad),
+        "truth_phase_epoch": None if phase_epoch is None else phase_epoch.utc.isot,
         "site": {"lat_deg": float(site.lat.deg), "lon_deg": float(site.lon.deg), "height_m": float(site.height.to_value(u.m))},
         "orbit": {"a_m": orbit.a_m, "e": orbit.e, "i_deg": float(np.degrees(orbit.i_rad)), "raan_deg": float(np.degrees(orbit.raan_rad)),
                   "argp_deg": float(np.degrees(orbit.argp_rad)), "nu0_deg": float(np.degrees(orbit.nu0_rad))},

@@ -170,8 +170,12 @@ def render(
                                      "(default: lightcurves.simulate.DEFAULT_EPOCH)", callback=v.text()),
     site: str | None = typer.Option(None, help="observer 'LAT,LON,HEIGHT_M': geodetic degrees, degrees east, metres "
                                     "(default: ESA's OGS at Teide, lightcurves.geometry.DEFAULT_SITE)", callback=v.text()),
+    phase_deg: float | None = typer.Option(None, help="rotational phase at J2000.0 (2000-01-01T12:00:00 TT), deg (default: drawn from --seed); "
+                                           "nights rendered with one --pole-ra-dec, --phase-deg and rate are one continuous rotation",
+                                           callback=v.number(-360, 360, unit="deg")),
 ) -> None:
     """Render a synthetic light curve and write it as ECSV (with the Sun and observer directions per sample)."""
+    from astropy.time import Time
     from astropy.utils import iers
     from tqdm import tqdm
 
@@ -200,6 +204,7 @@ def render(
 
         sim = simulate_lightcurve(
             tgt, axis_T=axis_T, rate_rad_s=np.radians(rate_deg_s), duration_s=duration, cadence_s=cadence, rng=rng, pole_I=pole_I, epoch=when, site=where,
+            phase_rad=None if phase_deg is None else np.radians(phase_deg), phase_epoch=Time("2000-01-01T12:00:00", scale="tt"),
             noise=noise, uneven=not even, renderer=renderer, meta={"seed": seed, "resolution": resolution, "spp": spp}, progress=progress,
         )  # fmt: skip
     ts = to_timeseries(sim.lightcurve)
@@ -288,4 +293,7 @@ def prior(
 
 def register(app: typer.Typer) -> None:
     """Add ``lcnav lightcurve ...`` to the root app."""
+    from studies.cli import invert
+
+    invert.register(lightcurve_app)
     app.add_typer(lightcurve_app, name="lightcurve")
