@@ -103,9 +103,8 @@ def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str 
     Night ``k`` starts at the first arc visible from the default site after ``DEFAULT_EPOCH + k · night_spacing_days``;
     the pole is drawn isotropically and the phase uniformly from ``rng``. ``progress(n_done, n_total)`` counts nights.
     """
-    from lightcurves.geometry import DEFAULT_SITE, find_visible_start
     from lightcurves.render import UnresolvedRenderer
-    from lightcurves.simulate import DEFAULT_EPOCH, DEFAULT_ORBIT, simulate_lightcurve
+    from lightcurves.simulate import DEFAULT_EPOCH, simulate_lightcurve
     from lightcurves.targets import get_target
 
     if int(nights) < 1:
@@ -115,15 +114,12 @@ def observe_nights(scenario: Scenario, rng: np.random.Generator, *, target: str 
     renderer = UnresolvedRenderer(tgt, resolution=resolution_px, spp=spp)
     pole_I = _isotropic(rng)
     phase0 = float(rng.uniform(0.0, 2.0 * np.pi))
-    sims, lcs, t0 = [], [], None
+    sims, lcs = [], []
     for k in range(int(nights)):
         epoch = DEFAULT_EPOCH + k * night_spacing_days * u.day
-        start = epoch + find_visible_start(DEFAULT_ORBIT, epoch, duration_s, DEFAULT_SITE) * u.s
-        t0 = start if t0 is None else t0
-        # a principal-axis spin turns the body by ω Δt about the pole between arc starts (geometry.pole_quaternion's phase)
-        phase = phase0 + rate * float((start - t0).to_value(u.s))
+        # one steady spin through every night: the phase is the one at DEFAULT_EPOCH, carried by ω Δt to each arc
         sim = simulate_lightcurve(tgt, axis_T=axis_T, rate_rad_s=rate, duration_s=duration_s, cadence_s=cadence_s, rng=rng, epoch=epoch,
-                                  pole_I=pole_I, phase_rad=phase % (2.0 * np.pi), renderer=renderer, meta={"night": k})
+                                  pole_I=pole_I, phase_rad=phase0, phase_epoch=DEFAULT_EPOCH, renderer=renderer, meta={"night": k})
         lc = sim.lightcurve
         sims.append(sim)
         lcs.append(dataclasses.replace(lc, meta={key: lc.meta[key] for key in OBSERVER_META if key in lc.meta}))
