@@ -161,6 +161,11 @@ def initialize_with_prior(x0, P0, prior: BodyRatePrior, servicer) -> tuple[np.nd
 
 
 def rate_proxy(prior: BodyRatePrior, servicer, R_w: float = R_OMEGA_PROXY) -> tuple[TargetRateMeasurement, np.ndarray]:
-    """``(source, z)``: the prior as a fictitious measurement of ``ω_T_T`` for ``update``."""
-    src = TargetRateMeasurement(w_S_S=np.asarray(servicer, dtype=float)[W_B], R=R_w * np.eye(3))
+    """``(source, z)``: the prior as a fictitious measurement of ``ω_T_T`` for ``update``.
+
+    Its noise is ``R_ω I`` (§6.3) plus the prior's own covariance: a prior whose axis a light-curve inversion
+    left open (an axisymmetric target's azimuth, an unsettled sense) must not pull the estimate to its mean as
+    if it knew it. For the paper's 5 % prior the added term is ~1 % of ``R_ω``.
+    """
+    src = TargetRateMeasurement(w_S_S=np.asarray(servicer, dtype=float)[W_B], R=R_w * np.eye(3) + prior.covariance)
     return src, prior.w_T_T_rad_s

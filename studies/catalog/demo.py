@@ -1,12 +1,13 @@
 """The demo (``lcnav demo``, what ``make demo`` runs): the main job, end to end, on an embedded default.
 
-1. renders a light curve of the default rocket body (Atlas-Centaur-like,
-   ``lightcurves.targets.atlas_centaur``) tumbling like SC3's target — its
-   initial rate ``|ω_T0|`` about its initial axis — with the code path of
-   ``lcnav lightcurve render`` (:func:`studies.sim.chain.render_prior`);
-2. extracts the spin prior (:func:`lightcurves.extract_spin_prior`)
-   and maps it to an ω vector about an **assumed** axis (see
-   :attr:`studies.sim.chain.RenderedPrior.mapping`);
+1. renders several arcs of light curves of the default rocket body (Atlas-Centaur-like,
+   ``lightcurves.targets.atlas_centaur``) spinning like SC3's target — its initial rate ``ω_T0`` —
+   about a drawn pole, from a ground site, with the code path of ``lcnav lightcurve render``
+   (:func:`studies.sim.chain.render_prior`);
+2. builds the spin prior from those light curves and the target's model only: the longest arc's period
+   (:func:`lightcurves.extract_spin_prior`) bounds a known-shape light-curve inversion
+   (:func:`lightcurves.inversion.invert`) whose modes become ``ω_T`` with a full covariance
+   (:func:`lightcurves.inversion.prior.spin_prior_from_inversion`); the truth only scores it;
 3. runs the EKF and the UKF on SC3 (Renis et al. Table 1) without the prior
    (``general-conservative`` tuning, ``ω̂_0 = 0``) and with it (the tuning it points to and
    the prior as initial condition, §6.2), on the same measurements, through
@@ -35,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from studies.catalog.figures import plot_errors, plot_lightcurve, plot_prior_comparison, plot_spectrum
-from studies.sim.chain import ARM_LABELS, flat_metrics, navigate_arm, record_lightcurve, record_run, render_prior
+from studies.sim.chain import ARM_LABELS, flat_metrics, inversion_summary, navigate_arm, record_lightcurve, record_run, render_prior
 from lightcurves.io import to_timeseries
 from studies.engine.io import atomic_path, output_folder, write_json, write_table, write_text
 from studies.sim.metrics import GROUPS, UNITS
@@ -56,6 +57,8 @@ class DemoConfig:
     dt_s: float = 1.0
     filters: tuple[str, ...] = ("ekf", "ukf")
     target: str = "atlas-centaur"
+    lightcurve_nights: int = 3  #: arcs observed (each the first visible arc after its start time)
+    night_spacing_days: float = 0.125  #: 3 h between arc start times: the phase angle changes by tens of degrees
     lightcurve_duration_s: float = 600.0
     lightcurve_cadence_s: float = 1.0
     render_resolution_px: int = 64
@@ -64,7 +67,7 @@ class DemoConfig:
 
 
 #: ``--quick``: a smaller run for the tests.
-QUICK = DemoConfig(duration_s=120.0, lightcurve_cadence_s=2.0, render_resolution_px=16)
+QUICK = DemoConfig(duration_s=120.0, lightcurve_duration_s=300.0, lightcurve_cadence_s=2.0, render_resolution_px=16)
 #: The two arms of the demo: without the prior, and with it (tuning + initial condition).
 DEMO_ARMS = {"": "none", "_prior": "init"}
 
@@ -103,25 +106,31 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     rng = np.random.default_rng(config.seed)
     measurement_seed = int(rng.integers(2**63))  # drawn first: independent of how many draws the render takes
 
-    say(f"lcnav demo: rendering a light curve of {config.target} tumbling like {sc.name}'s target "
-         f"({config.lightcurve_duration_s:g} s at {config.lightcurve_cadence_s:g} s, {config.render_resolution_px} px)")
-    with tqdm(total=None, unit="sample", desc="render light curve", leave=False, disable=not progress) as bar:
+    say(f"lcnav demo: rendering {config.lightcurve_nights} arcs of light curves of {config.target} spinning like {sc.name}'s target "
+        f"({config.lightcurve_duration_s:g} s at {config.lightcurve_cadence_s:g} s each, {config.render_resolution_px} px), then inverting them")
+    with tqdm(total=None, unit="arc", desc="render light curves", leave=False, disable=not progress) as bar:
 
         def tick(done, total):
             bar.total = total
             bar.n = done
             bar.refresh()
 
-        rendered = render_prior(sc, rng, target=config.target, duration_s=config.lightcurve_duration_s, cadence_s=config.lightcurve_cadence_s,
+        rendered = render_prior(sc, rng, target=config.target, nights=config.lightcurve_nights, night_spacing_days=config.night_spacing_days,
+                                duration_s=config.lightcurve_duration_s, cadence_s=config.lightcurve_cadence_s,
                                 resolution_px=config.render_resolution_px, spp=config.render_spp, progress=tick)
     p = rendered.extracted
     if rendered.spin is None:
-        raise RuntimeError(f"the rendered light curve gave no significant period ({p.decision}); the demo needs a prior")
-    say(f"  truth rate {np.degrees(rendered.truth_rate_rad_s):.4f} °/s; light-curve prior: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s "
-         f"(period {p.period_s:.2f} s, {p.maxima_per_rotation} maxima per rotation), error {100 * rendered.rate_error:+.3f} %")
+        raise RuntimeError(f"the rendered light curves gave no significant period ({p.decision}); the demo needs a prior")
+    score = rendered.score()
+    best = rendered.built.inversion.best
+    lam, beta = np.degrees(best.ecliptic_rad)
+    say(f"  inversion: pole (λ, β) = ({lam:.1f}°, {beta:+.1f}°) ± {best.pole_sigma_deg:.2g}°, sidereal period {best.period_s:.3f} ± "
+        f"{best.period_sigma_s:.2g} s, {len(rendered.built.inversion.solutions)} mode(s); truth: pole off by {score['prior_pole_err_deg']:.1f}°, "
+        f"period off by {score['prior_period_err_pct']:+.3f} %")
     say(f"  {rendered.mapping}")
-    w = rendered.spin.w_T_T_rad_s
-    say(f"  prior ω_T = ({', '.join(f'{v:.5f}' for v in w)}) rad/s vs truth ω_T0 = ({', '.join(f'{v:.5f}' for v in sc.w_T0_T_rad_s)}) rad/s")
+    w, sig = rendered.spin.w_T_T_rad_s, rendered.spin.sigma_rad_s
+    say(f"  prior ω_T = ({', '.join(f'{v:+.5f}' for v in w)}) ± ({', '.join(f'{v:.5f}' for v in sig)}) rad/s vs truth ω_T0 = "
+        f"({', '.join(f'{v:+.5f}' for v in sc.w_T0_T_rad_s)}) rad/s (Mahalanobis² {score['prior_w_mahalanobis2']:.2f}, 3 dof)")
 
     truth = simulate_truth(sc, config.duration_s, config.dt_s)
     runs = {}
@@ -129,7 +138,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
     jobs = [(f, suffix, arm) for f in config.filters for suffix, arm in DEMO_ARMS.items()]
     for f, suffix, arm in tqdm(jobs, desc=f"filters on {sc.name}", unit="run", leave=False, disable=not progress):
         name = f"{f}{suffix}"
-        run, meas, tuning = navigate_arm(truth, f, arm, rendered.spin, measurement_seed)
+        run, meas, tuning = navigate_arm(truth, f, arm, rendered.spin, measurement_seed, tuning_spin=rendered.built.tuning_spin)
         runs[name] = (run, meas)
         m = flat_metrics(truth, run, "m")
         rows.append({"run": name, "filter": f.upper(), "prior": ARM_LABELS[arm], "tuning": tuning,
@@ -140,8 +149,7 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
              f"for every run. 'no prior': the general-conservative tuning and ω̂_0 = 0; 'prior: tuning + init': the tuning the light-curve prior "
              f"points to and ω̂_0 from the prior with its P_0 block (Renis et al. §6.2). t_conv: time after which the state error stays below "
              f"the threshold (q, w 2°, r 1 m, v 0.1 m/s, k 0.2); RMSE from t_conv on (Renis et al. §6); '–': did not converge. "
-             f"Prior: {p.rate_deg_s:.4f} ± {p.rate_sigma_deg_s:.2g} °/s from the light curve ({100 * rendered.rate_error:+.3f} % "
-             f"from the rendered truth); {rendered.mapping}")
+             f"Prior: {rendered.mapping} (sidereal rate {100 * rendered.rate_error:+.3f} % from the rendered truth).")
     tables = [Table("comparison", f"lcnav demo: EKF and UKF on {sc.name}, with and without the light-curve prior", table, notes, default_format=".3g")]
 
     # ---- write everything (staged under the --out lock, moved into --out once all is written), now that every computation has succeeded
@@ -151,10 +159,12 @@ def run_demo(out: Path = DEFAULT_OUT, config: DemoConfig = DemoConfig(), *, prog
         write_text(stage / "narrative.txt", "\n".join(narrative) + "\n")
         with atomic_path(stage / "lightcurve.ecsv") as tmp:
             to_timeseries(rendered.simulated.lightcurve).write(tmp, format="ascii.ecsv", overwrite=True)
-        write_json(stage / "prior.json", {**p.to_dict(), "truth_rate_rad_s": rendered.truth_rate_rad_s, "rate_error": rendered.rate_error,
-                                        "assumed_axis_T": rendered.axis_T.tolist(), "prior_w_T_T_rad_s": w.tolist(),
-                                        "prior_sigma_rad_s": rendered.spin.sigma_rad_s.tolist(), "mapping": rendered.mapping,
-                                        "config": asdict(config)})
+        write_json(stage / "prior.json", {"single_night": p.to_dict(), "inversion": inversion_summary(rendered.built.inversion),
+                                        "prior_w_T_T_rad_s": w.tolist(), "prior_sigma_rad_s": sig.tolist(),
+                                        "prior_covariance_rad2_s2": rendered.spin.covariance.tolist(), "mapping": rendered.mapping,
+                                        "truth": {"rate_rad_s": rendered.truth_rate_rad_s, "axis_T": rendered.axis_T.tolist(),
+                                                  "pole_I": rendered.observed.truth.pole_I.tolist()},
+                                        "score": score, "rate_error": rendered.rate_error, "config": asdict(config)})
         plot_lightcurve(rendered, stage / "lightcurve.png")
         plot_spectrum(rendered, stage / "spectrum.png")
         record_lightcurve(stage / "lightcurve.rrd", rendered, recording_id=f"demo-lightcurve-seed{config.seed}")

@@ -5,6 +5,7 @@ priors, tables, figures. One run of them is :func:`studies.sim.navigation.naviga
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,49 @@ COMMON_FIELDS: dict[str, Field] = {
     "confidence": Field("float", "Confidence level of the intervals in the summary.", gt=0, le=0.999, default=0.95),
     "record": Field("bool", "Write run.rrd (and errors.parquet) for every run.", default=True),
 }
+#: Where a prior study's prior comes from (``init``, ``proxy``): light curves as a user has them, or the paper's oracle.
+PRIOR_FIELDS: dict[str, Field] = {
+    "prior_source": Field("str", "lightcurves: rendered arcs inverted with the target's model (studies.sim.lightcurve_prior; no truth "
+                          "reaches the prior); truth: Renis et al. §5.3, the true rate off by prior_rate_error (an oracle, on purpose).",
+                          choices=("lightcurves", "truth"), default="lightcurves"),
+    "lc_target": Field("str", "Rendered target of the light curves (lightcurves/targets.py).", default="atlas-centaur"),
+    "lc_nights": Field("int", "Light-curve arcs observed.", ge=1, le=10, default=3),
+    "lc_night_spacing_days": Field("float", "Time between the arcs' start times, days.", gt=0, le=60, default=0.125),
+    "lc_duration_s": Field("float", "Each arc, s.", gt=0, le=7200, default=600.0),
+    "lc_cadence_s": Field("float", "Light-curve sampling interval, s.", gt=0, default=1.0),
+    "lc_resolution_px": Field("int", "Film pixels per side of the renders.", ge=4, le=512, default=64),
+    "lc_spp": Field("int", "Samples per pixel of the renders.", choices=(1, 4, 16, 64, 256), default=4),
+    "lc_seed": Field("int", "Seed of the observation campaign (one set of light curves, so one prior, for every run of the study).", ge=0,
+                     default=1),
+}
+PRIOR_RUN_FIELDS = tuple(PRIOR_FIELDS)
+
+
+@functools.lru_cache(maxsize=4)
+def _campaign(scenario: str, target: str, nights: int, spacing_days: float, duration_s: float, cadence_s: float, px: int, spp: int, seed: int):
+    """One observation campaign and the prior built from it (cached: every run of a study, per worker process, shares it)."""
+    from studies.sim.chain import render_prior
+    from studies.sim.scenarios import get_scenario
+
+    return render_prior(get_scenario(scenario), np.random.default_rng(seed), target=target, nights=nights, night_spacing_days=spacing_days,
+                        duration_s=duration_s, cadence_s=cadence_s, resolution_px=px, spp=spp)
+
+
+def study_prior(p: dict, scenario: str, w_T_true, rng: np.random.Generator) -> tuple[BodyRatePrior | None, dict]:
+    """The prior of one run of a prior study, and how it scores against the truth (``prior_*`` columns).
+
+    ``prior_source = "lightcurves"``: built from one rendered observation campaign (``lc_*`` fields) by
+    :func:`studies.sim.lightcurve_prior.build_prior`, which sees the light curves and the target's name only; the
+    truth ``w_T_true`` only scores it. ``"truth"``: the paper's oracle (:func:`draw_prior`), said in the tables.
+    """
+    if p["prior_source"] == "truth":
+        prior = draw_prior(w_T_true, p["prior_rate_error"], p["prior_error_direction"], rng)
+        return prior, {"prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - w_T_true))}
+    rendered = _campaign(scenario, p["lc_target"], p["lc_nights"], p["lc_night_spacing_days"], p["lc_duration_s"], p["lc_cadence_s"],
+                         p["lc_resolution_px"], p["lc_spp"], p["lc_seed"])
+    return rendered.spin, rendered.score()
+
+
 #: The per-run parameters among :data:`COMMON_FIELDS` (``confidence`` is summary-only).
 COMMON_RUN_FIELDS = tuple(k for k in COMMON_FIELDS if k != "confidence")
 GROUP_LABELS = {"q": "q_TS", "w": "ω_ST", "r": "r_ST", "v": "v_ST", "k": "J_T^k"}

@@ -31,7 +31,7 @@ from estimators.prior import PROXY_MODES
 from estimators.state import K_STATES, W_B
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
-    COMMON_FIELDS, COMMON_RUN_FIELDS, GROUP_LABELS, check_common, draw_prior, median_interval, paired_error_figure,
+    COMMON_FIELDS, COMMON_RUN_FIELDS, PRIOR_FIELDS, PRIOR_RUN_FIELDS, GROUP_LABELS, check_common, study_prior, median_interval, paired_error_figure,
     paired_specs, record_arm, pose_noise,
 )
 from studies.engine.config import ConfigError, Field, StudyConfig
@@ -61,10 +61,11 @@ FIELDS: dict[str, Field] = {
     "prior_error_direction": Field("str", "Direction of the prior's error.", choices=("random", "along"), default="along"),
     "R_omega": Field("float", "Variance of the pushed prior per axis, (rad/s)^2 (Renis et al. §6.3: 1e-3).", gt=0, default=1e-3),
     "proxy_mode": Field("str", "When the proxy is pushed.", choices=PROXY_MODES, default="always"),
+    **PRIOR_FIELDS,
     **COMMON_FIELDS,
 }
 _RUN_FIELDS = ("scenario", "duration_s", "dt_s", "tuning", "fault_start_s", "fault_duration_s", "fault_sigma_scale", "settling_s",
-               "prior_rate_error", "prior_error_direction", "R_omega", "proxy_mode", *COMMON_RUN_FIELDS)
+               "prior_rate_error", "prior_error_direction", "R_omega", "proxy_mode", *PRIOR_RUN_FIELDS, *COMMON_RUN_FIELDS)
 ARM_LABEL = {False: "", True: " +proxy"}
 
 
@@ -93,7 +94,10 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     rng = np.random.default_rng(spec.seed)
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
-    prior = draw_prior(tr.target[0, W_B], p["prior_rate_error"], p["prior_error_direction"], rng)
+    # the truth scores the prior; builds it only with prior_source = "truth" (the paper's oracle)
+    prior, prior_score = study_prior(p, sc.name, tr.target[0, W_B], rng)
+    if prior is None:
+        raise RuntimeError("the light curves gave no significant period: the proxy study needs a prior (see prior_source)")
     scale = p["fault_sigma_scale"]
     setup = NavigationSetup(
         p["filter"], get_tuning(p["tuning"]), prior=prior, prior_use="proxy" if p["proxy"] else "init",
@@ -118,7 +122,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         "fault_q_err_rms_rad": _rms(q_f), "fault_q_err_max_rad": float(q_f.max()),
         "fault_r_err_rms_m": _rms(err["err_r"].to_numpy()[fault]),
         "pre_fault_w_err_rad_s": float(err["err_w"].to_numpy()[np.flatnonzero(t < p["fault_start_s"])[-1]]),
-        "prior_w_err_rad_s": float(np.linalg.norm(prior.w_T_T_rad_s - tr.target[0, W_B])),
+        **prior_score,
     })
     k_fault = np.flatnonzero(fault)
     for s in SOURCES:

@@ -2,18 +2,14 @@
 
 The chain of Renis et al. §5–6 end to end:
 
-1. :func:`render_prior` renders a light curve of a rocket body tumbling like
-   a scenario's target (its initial rate ``ω_T0`` about the same body axis,
-   :func:`lightcurves.simulate.simulate_lightcurve`, the code path of
-   ``lcnav lightcurve render``) and extracts the spin prior
-   (:func:`lightcurves.extract_spin_prior`, Renis et al. §2.3);
-2. the light curve gives a *rate* and its 1-σ, not an axis: the prior vector
-   is ``ω_prior = rate · â`` with 1-σ ``σ_rate`` on every axis
-   (:meth:`lightcurves.prior.SpinPrior.body_rate_prior`), where ``â`` is an **assumed**
-   spin axis in the target frame — here the scenario's true initial spin axis
-   ``ω_T0/|ω_T0|`` (for a two-axis tumble such as SC3 this is the assumption
-   that the axis is known from elsewhere, e.g. resolved imaging; the light
-   curve itself cannot tell it, nor the sense of rotation);
+1. :func:`render_prior` renders several nights of light curves of a rocket body spinning like a
+   scenario's target at ``t = 0`` (its initial rate ``ω_T0``, a drawn pole and phase;
+   :func:`studies.sim.lightcurve_prior.observe_nights`, the code path of ``lcnav lightcurve render``)
+   and builds the spin prior from those light curves and the target's model ONLY
+   (:func:`studies.sim.lightcurve_prior.build_prior`: the single-night period bounds a known-shape
+   light-curve inversion, whose modes become ``ω_T`` with a full covariance);
+2. the truth that rendered the curves scores the prior afterwards (:meth:`RenderedPrior.score`), never
+   builds it (``tests/studies/test_no_oracle.py``);
 3. :func:`navigate_arm` runs one filter in one *arm* — ``none`` (the general
    tuning, ``ω̂_0 = 0``), ``tuning`` (the scenario-specific tuning the prior
    points to, :func:`estimators.prior.tuning_for_prior`), ``init`` (that
@@ -38,6 +34,7 @@ from estimators.prior import BodyRatePrior, tuning_for_prior
 from estimators.tuning import get_tuning
 from lightcurves.simulate import SimulatedLightCurve
 from studies.sim.metrics import GROUPS, evaluate, state_errors
+from studies.sim.lightcurve_prior import BuiltPrior, ObservedNights, build_prior, observe_nights, score_prior
 from studies.sim.scenarios import Scenario
 from studies.sim.truth import Truth
 
@@ -50,36 +47,50 @@ GENERAL_TUNING = "general-conservative"
 
 @dataclass(frozen=True)
 class RenderedPrior:
-    """A rendered light curve, the spin prior extracted from it, and that prior as an ω vector."""
+    """Rendered nights of light curves, the prior built from them, and the truth behind them (scoring only)."""
 
-    simulated: SimulatedLightCurve
-    extracted: object  #: :class:`lightcurves.prior.SpinPrior` (rate, 1-σ, spectrum, candidates)
-    truth_rate_rad_s: float  #: the rate the light curve was rendered with
-    axis_T: np.ndarray  #: the assumed spin axis (unit, target frame)
-    spin: BodyRatePrior | None  #: the filters' prior; None when the light curve gave no significant period
+    observed: ObservedNights
+    built: BuiltPrior
+
+    @property
+    def simulated(self) -> SimulatedLightCurve:
+        """The longest night's render (figures and recordings)."""
+        return max(self.observed.simulated, key=lambda sim: len(sim.lightcurve))
+
+    @property
+    def extracted(self):
+        """The single-night rate prior (:class:`lightcurves.prior.SpinPrior`) that bounded the inversion's period search."""
+        return self.built.rate_prior
+
+    @property
+    def spin(self) -> BodyRatePrior | None:
+        """The filters' prior (None when the light curves gave no significant period)."""
+        return self.built.spin
+
+    @property
+    def truth_rate_rad_s(self) -> float:
+        """The rate the light curves were rendered with (scoring only)."""
+        return self.observed.truth.rate_rad_s
+
+    @property
+    def axis_T(self) -> np.ndarray:
+        """The body axis the light curves were rendered about (scoring and captions only)."""
+        return self.observed.truth.axis_T
 
     @property
     def rate_error(self) -> float:
-        """Relative error of the extracted rate, ``rate/truth − 1`` (NaN without a period)."""
-        r = self.extracted.rate_rad_s
-        return float("nan") if r is None else float(r / self.truth_rate_rad_s - 1.0)
+        """Relative error of the prior's sidereal rate (the best inversion mode), ``rate/truth − 1`` (NaN without a prior)."""
+        ip = self.built.inversion_prior
+        return float("nan") if ip is None else float(ip.rate_rad_s / self.truth_rate_rad_s - 1.0)
 
     @property
     def mapping(self) -> str:
-        """One sentence: how the rate became an ω vector, and what was assumed."""
-        a = ", ".join(f"{v:+.3f}" for v in self.axis_T)
-        return (f"prior ω_T = rate × â with â = ({a}) in the target frame T, 1-σ = σ_rate on each axis "
-                f"(lightcurves.SpinPrior.body_rate_prior). The light curve gives the rate only: the axis â (and the sense of "
-                f"rotation) is an ASSUMPTION — here the scenario's true initial spin axis ω_T0/|ω_T0|.")
+        """One sentence: how the light curves became an ω vector, and what they leave open."""
+        return self.built.description
 
-
-def spin_axis(scenario: Scenario) -> tuple[np.ndarray, float]:
-    """The scenario's initial spin axis ``ω_T0/|ω_T0|`` (target frame) and rate ``|ω_T0|`` (rad/s)."""
-    w = np.asarray(scenario.w_T0_T_rad_s, dtype=float)
-    rate = float(np.linalg.norm(w))
-    if rate == 0.0:
-        raise ValueError(f"scenario {scenario.name} has no spin: a light curve cannot give it a rate prior")
-    return w / rate, rate
+    def score(self) -> dict:
+        """The prior against the truth (:func:`studies.sim.lightcurve_prior.score_prior`)."""
+        return score_prior(self.built, self.observed.truth)
 
 
 def render_prior(
@@ -87,53 +98,56 @@ def render_prior(
     rng: np.random.Generator,
     *,
     target: str = "atlas-centaur",
+    nights: int = 3,
+    night_spacing_days: float = 2.0,
     duration_s: float = 600.0,
     cadence_s: float = 1.0,
     resolution_px: int = 64,
     spp: int = 4,
-    false_alarm_level: float = 0.01,
     progress=None,
 ) -> RenderedPrior:
-    """Render a light curve of ``target`` spinning like ``scenario``'s target at ``t = 0`` and extract its prior.
+    """Render ``nights`` light curves of ``target`` spinning like ``scenario``'s target and build the prior from them.
 
-    The noise, sampling and rotation phase are drawn from ``rng``. ``progress``
-    is passed to :func:`~lightcurves.simulate.simulate_lightcurve`.
+    The pole, phase, noise and sampling are drawn from ``rng`` (:func:`~studies.sim.lightcurve_prior.observe_nights`);
+    the prior sees the light curves and the target's name only (:func:`~studies.sim.lightcurve_prior.build_prior`).
+    ``progress(n_done, n_total)`` counts rendered nights.
     """
-    from lightcurves import extract_spin_prior
-    from lightcurves.render import UnresolvedRenderer
-    from lightcurves.simulate import simulate_lightcurve
-    from lightcurves.targets import get_target
+    observed = observe_nights(scenario, rng, target=target, nights=nights, night_spacing_days=night_spacing_days, duration_s=duration_s,
+                              cadence_s=cadence_s, resolution_px=resolution_px, spp=spp, progress=progress)
+    built = build_prior(observed.lightcurves, target, rng=np.random.default_rng(rng.integers(2**63)))
+    return RenderedPrior(observed, built)
 
-    axis_T, rate = spin_axis(scenario)
-    tgt = get_target(target)
-    renderer = UnresolvedRenderer(tgt, resolution=resolution_px, spp=spp)
-    sim = simulate_lightcurve(tgt, axis_T=axis_T, rate_rad_s=rate, duration_s=duration_s, cadence_s=cadence_s, rng=rng,
-                              renderer=renderer, meta={"scenario": scenario.name, "resolution": resolution_px, "spp": spp},
-                              progress=progress)
-    lc = sim.lightcurve
-    # the Sun and observer directions give the 1-σ its synodic term (the apparent rate's offset from the sidereal one)
-    extracted = extract_spin_prior(lc.t_s, lc.mag, lc.mag_err if np.all(np.isfinite(lc.mag_err)) else None,
-                                   false_alarm_level=false_alarm_level, sun_dir=sim.observation.sun_dir_I,
-                                   observer_dir=sim.observation.observer_dir_I)
-    spin = None
-    if extracted.significant:
-        spin = extracted.body_rate_prior(axis_T, source=f"light curve of {target}")
-    return RenderedPrior(sim, extracted, rate, axis_T, spin)
+
+def inversion_summary(result) -> dict:
+    """The inversion's modes as JSON-ready numbers (best first): probability, pole (ecliptic, equatorial, σ), period, axis."""
+    rows = []
+    for s in result.solutions:
+        lam, beta = np.degrees(s.ecliptic_rad)
+        ra, dec = np.degrees(s.radec_rad)
+        rows.append({"probability": float(s.probability), "pole_ecliptic_lon_deg": float(lam), "pole_ecliptic_lat_deg": float(beta),
+                     "pole_ra_deg": float(ra), "pole_dec_deg": float(dec), "pole_sigma_deg": float(s.pole_sigma_deg),
+                     "sidereal_period_s": float(s.period_s), "sidereal_period_sigma_s": float(s.period_sigma_s),
+                     "body_spin_axis_T": np.asarray(s.state.axis_T).tolist(), "chi2": float(s.chi2)})
+    return {"solutions": rows, "dof": int(result.dof), "chi2_scale": float(result.chi2_scale)}
 
 
 def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:
-    """The tuning name an arm uses: ``general-conservative`` without a prior, else the one the prior points to."""
+    """The tuning name an arm uses: ``general-conservative`` without a prior, else the one the prior points to.
+
+    ``spin`` is the prior the tuning is chosen from: for an inversion, its best mode's ``rate · axis``
+    (:attr:`studies.sim.lightcurve_prior.BuiltPrior.tuning_spin`), not the moment-matched mean.
+    """
     if arm not in ARMS:
         raise ValueError(f"arm must be one of {ARMS}, got {arm!r}")
     if arm == "none":
         return GENERAL_TUNING
     if spin is None:
-        raise ValueError(f"arm {arm!r} needs a spin prior; the light curve gave no significant period")
+        raise ValueError(f"arm {arm!r} needs a spin prior; the light curves gave no significant period")
     return tuning_for_prior(spin)
 
 
 def navigate_arm(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior | None, measurement_seed: int, *,
-                 faults=(), gate_confidence: float = 0.99, gate_start_s: float = 10.0):
+                 tuning_spin: BodyRatePrior | None = None, faults=(), gate_confidence: float = 0.99, gate_start_s: float = 10.0):
     """One filter run in one arm: ``(NavigationRun, measurements, tuning name)``.
 
     The measurements and the initial inertia guess are drawn from
@@ -145,7 +159,7 @@ def navigate_arm(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior |
     from estimators.state import K_STATES
     from studies.sim.navigation import NavigationSetup, navigate, one_axis
 
-    tuning_name = arm_tuning(arm, spin)
+    tuning_name = arm_tuning(arm, tuning_spin if tuning_spin is not None else spin)
     consider = K_STATES if one_axis(truth.scenario.w_T0_T_rad_s) else ()
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
     setup = NavigationSetup(filter_name, get_tuning(tuning_name), prior=spin, prior_use=use, proxy_mode="always", faults=faults,

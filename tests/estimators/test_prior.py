@@ -87,7 +87,7 @@ def test_proxy_measures_the_target_rate(truth, rng):
     prior = BodyRatePrior.from_truth(tr.target[0, W_B], 0.05)
     src, z = rate_proxy(prior, tr.servicer[7])
     assert isinstance(src, TargetRateMeasurement)
-    np.testing.assert_allclose(src.R, 1e-3 * np.eye(3))
+    np.testing.assert_allclose(src.R, 1e-3 * np.eye(3) + prior.covariance)  # R_ω I (§6.3) plus the prior's own uncertainty
     np.testing.assert_array_equal(z, prior.w_T_T_rad_s)
     # h(x_true) is the target's own rate in its body frame
     np.testing.assert_allclose(src.h_chart(tr.x[7], tr.x[7]), tr.target[7, W_B], atol=1e-12)

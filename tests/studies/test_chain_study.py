@@ -50,28 +50,36 @@ def test_inspect_export_has_one_row_per_step(chain_out, tmp_path):
         assert len(pd.read_parquet(out)) == n_steps == 121
 
 
-def test_rendered_prior_rate_error_below_3_percent(chain_out):
+def test_prior_from_inverted_light_curves_recovers_the_spin_and_states_its_uncertainty(chain_out):
+    """Per seed: the sidereal rate of the best inversion mode within 0.1 % of the rendered truth, the pole within 5°, the
+    truth inside the prior's 99.9 % region; a slow rate picks a slow tuning. The rocket body is axisymmetric, so the light
+    curves cannot tell SC3's axis from SC1's (both lie in the plane ⟂ its symmetry axis): the one/two-axis choice is not
+    scored."""
+    from scipy.stats import chi2
+
     runs = pd.read_parquet(chain_out / "runs.parquet")
-    assert runs["prior_significant"].all()
-    assert (runs["lc_rate_error_pct"].abs() < 3.0).all(), runs["lc_rate_error_pct"].tolist()
-    # the rate error is the extracted rate against the rate each light curve was rendered with
+    assert runs["prior_significant"].all() and runs["prior_available"].all()
+    assert (runs["lc_rate_error_pct"].abs() < 0.1).all(), runs["lc_rate_error_pct"].tolist()
     assert np.allclose(runs["lc_rate_error_pct"], 100 * (runs["lc_rate_deg_s"] / runs["lc_truth_rate_deg_s"] - 1))
     assert np.allclose(runs["lc_truth_rate_deg_s"], np.degrees(np.hypot(0.02, 0.045)))  # SC3's |ω_T0|
-    # a slow two-axis rate picks SC3's own tuning (§6.1)
-    assert (runs["tuning_chosen"] == "sc3-conservative").all() and runs["tuning_correct"].all()
+    assert (runs["prior_pole_err_deg"] < 5.0).all() and runs["prior_sense_right"].all()
+    assert (runs["prior_w_mahalanobis2"] < chi2.ppf(0.999, 3)).all(), runs["prior_w_mahalanobis2"].tolist()
+    assert runs["tuning_chosen"].isin(["sc1-conservative", "sc3-conservative"]).all()
     lc = pd.read_parquet(chain_out / "lightcurve.parquet")
-    assert lc["max |error| (%)"].iloc[0] < 3.0
+    assert lc["max |error| (%)"].iloc[0] < 0.1
 
 
-def test_prior_as_initial_condition_starts_the_rate_converged(chain_out):
-    """ω̂_0 from a light-curve prior within 3 % is inside the 2° threshold at once; from ω̂_0 = 0 it is not."""
+def test_prior_as_initial_condition_starts_within_its_stated_uncertainty(chain_out):
+    """ω̂_0 from the prior is within 3σ of the prior's covariance (plus the servicer-rate term); from ω̂_0 = 0 the error
+    is the whole rate."""
     runs = pd.read_parquet(chain_out / "runs.parquet")
-    assert (runs["ekf_init_w_conv_s"] <= runs["ekf_none_w_conv_s"]).all()
     rid = runs["run_id"].iloc[0]
     without, _ = export_series(chain_out / "runs" / rid / "ekf_none.rrd", ["/estimate/**"])
     with_prior, _ = export_series(chain_out / "runs" / rid / "ekf_init.rrd", ["/estimate/**"])
     e0 = lambda df, name: np.linalg.norm([df[f"/estimate/{name}/error/w_ST_T/{a}/value"].iloc[0] for a in "xyz"])  # noqa: E731
-    assert e0(without, "ekf_none") > np.radians(2.0) > e0(with_prior, "ekf_init")
+    sigma = float(np.radians(runs["lc_prior_sigma_norm_deg_s"].iloc[0]))
+    assert e0(with_prior, "ekf_init") < 3.0 * sigma + 2.5e-3
+    assert e0(without, "ekf_none") > np.radians(2.0)
     rec = json.loads((chain_out / "runs" / rid / "metrics.json").read_text())
     assert rec["params"]["experiment"] == "init"
 
