@@ -23,6 +23,7 @@ from lightcurves.inversion.known_shape import KnownShapeModel
 from lightcurves.render import UnresolvedRenderer
 from lightcurves.scene import select_variant
 from lightcurves.targets import get_target
+from benchmarks.bench_lightcurves import _best_of
 
 TARGETS = ("sphere", "atlas-centaur", "vespa", "box-wing")
 N_ARCS, N_PER_ARC = 10, 24  # 240 geometries per target
@@ -58,15 +59,6 @@ def _pct(e: np.ndarray) -> str:
     return f"{100 * np.median(e):.2f} / {100 * e.max():.2f}"
 
 
-def _best_of(fn, repeat: int = 3) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def _target_rows(name: str, rng) -> tuple[str, str]:
     target = get_target(name)
     t0 = time.perf_counter()
@@ -92,8 +84,8 @@ def _target_rows(name: str, rng) -> tuple[str, str]:
     big = np.random.default_rng(1)
     s1800 = _unit(big.normal(size=(1800, 3)))
     o1800 = _unit(big.normal(size=(1800, 3)))
-    t_full = _best_of(lambda: model.intensity(s1800, o1800))
-    t_coarse = _best_of(lambda: coarse.intensity(s1800, o1800))
+    t_full = _best_of(lambda: model.intensity(s1800, o1800), 3)
+    t_coarse = _best_of(lambda: coarse.intensity(s1800, o1800), 3)
     rows = (f"| {name} | {model.n_facets} ({model.vis_masks.shape[1] if model.vis_masks.size else 0} shadowed) | {coarse.n_facets} "
             f"| {_pct(errors['full'])} | {_pct(errors['no shadows'])} | {_pct(errors['coarse'])} | {_pct(errors['full vs 64 px'])} "
             f"| {_pct(noise_seed)} | {_pct(noise_film)} | {'yes' if errors['full'].max() <= 0.02 else 'no'} |")
