@@ -33,7 +33,7 @@ MAX_PERIOD_RATIO = 10.0
 #: Most sidereal-rate trials of the search's grid (the span of the data sets the step, ΔP ≈ P²/(4 T)).
 MAX_PERIOD_TRIALS = 400
 #: Search sizes: default, and ``--quick`` (a coarser pole lattice and fewer samples in the grid: a first look).
-SEARCH_OPTIONS = {False: {}, True: {"pole_step_deg": 15.0, "n_grid_samples": 60, "n_candidates": 4, "n_periods_per_pole": 1, "n_phases": 12}}
+SEARCH_OPTIONS = {False: {}, True: {"pole_step_deg": 15.0, "n_grid_samples": 60, "n_candidates": 6, "n_periods_per_pole": 1, "n_phases": 12}}
 
 
 def _shape(text: str) -> str:
@@ -134,7 +134,7 @@ def invert_command(
     out: Path | None = typer.Option(None, help="write inversion.json, solutions.csv/.parquet and figures into this folder", callback=v.out_dir()),
     record: Path | None = typer.Option(None, help="write a rerun recording (.rrd)", callback=v.out_file(".rrd")),
     seed: int = typer.Option(0, help="seed of the search's random pole-lattice rotation", callback=v.seed()),
-    quick: bool = typer.Option(False, help="a coarser, faster search (15° pole lattice, 60 samples per curve in the grid, 4 pole minima refined)"),
+    quick: bool = typer.Option(False, help="a coarser, faster search (15° pole lattice, 60 samples per curve in the grid, 6 pole minima refined)"),
 ) -> None:
     """Invert light curves of one object to its spin state: pole, sidereal period, phase and (known shape) body axis."""
     from studies.catalog.inversion import PeriodRange, derived_period_ranges, fitted_brightness, result_dict, run_inversion
