@@ -823,6 +823,7 @@ def combina_metrics(run: CombinaRun) -> dict:
         "seed": cfg.seed,
         "prior": cfg.prior,
         "prior_error": cfg.prior_error,
+        "truth": cfg.truth,
         "duration_s": float(run.steps[-1].t),
         "rate_hz": cfg.rate_hz,
         "units": {"TU_s": TU, "LU_m": LU, "note": "errors in SI: m, m/s, MRP, rad/s, 1, rad, rad/s"},
