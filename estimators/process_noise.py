@@ -99,6 +99,8 @@ class DisturbanceBudget:
     sigma_a_m_s2: float
     sigma_kdot_1_s: float = 0.0
     correlation_time_s: float = 0.0
+    #: longest time over which the white-noise equivalent has to match the disturbance's integral, s (see :meth:`intensity`)
+    horizon_s: float = np.inf
     source: str = ""
 
     def __post_init__(self):
@@ -106,16 +108,27 @@ class DisturbanceBudget:
             v = getattr(self, name)
             if not (isinstance(v, int | float | np.floating) and np.isfinite(v) and v >= 0):
                 raise ValueError(f"DisturbanceBudget.{name}: {v!r}: expected a finite number >= 0")
+        if not (isinstance(self.horizon_s, int | float | np.floating) and self.horizon_s > 0):
+            raise ValueError(f"DisturbanceBudget.horizon_s: {self.horizon_s!r}: expected a number of seconds > 0 (inf: none)")
 
     def intensity(self, sigma: float, tau_s: float) -> float:
-        """White-noise equivalent ``q = σ² max(2 T_c, τ)`` of an acceleration of RMS ``σ`` (module docstring)."""
-        return float(sigma) ** 2 * max(2.0 * self.correlation_time_s, float(tau_s))
+        """White-noise equivalent ``q = σ² max(min(2 T_c, H), τ)`` of an acceleration of RMS ``σ`` (module docstring).
+
+        ``H`` (``horizon_s``): the random walk ``q t`` matches the integrated disturbance's variance ``2 σ² T_c t`` only for
+        ``t ≫ T_c``; over ``t ≪ T_c`` the disturbance is a constant, variance ``σ² t²``, which ``q = σ² t`` matches at ``t``.
+        A filter whose data outweigh a disturbance's history after ``H`` seconds needs the match at ``H``, not beyond.
+        """
+        return float(sigma) ** 2 * max(min(2.0 * self.correlation_time_s, self.horizon_s), float(tau_s))
+
+    def axis_block(self, sigma: float, tau_s: float) -> np.ndarray:
+        """Eq. (1) for one axis driven by an acceleration of RMS ``sigma``: ``[[Q_ξξ, Q_ξξ̇], [Q_ξξ̇, Q_ξ̇ξ̇]]`` (2, 2) over ``tau_s`` s."""
+        return white_noise_acceleration(self.intensity(sigma, tau_s), tau_s)
 
     def Q_d(self, tau_s: float) -> np.ndarray:
         """``Q_d`` (14, 14) over the error state ``[δp, δω, δr, δv, δk]`` for a step of ``tau_s`` s (eq. 1 per axis)."""
         Q = np.zeros((N_ERROR, N_ERROR))
         for (pos, rate), sigma in (((DTHETA, DW_ST_T), self.sigma_alpha_rad_s2), ((DR_ST_T, DV_ST_T), self.sigma_a_m_s2)):
-            b = white_noise_acceleration(self.intensity(sigma, tau_s), tau_s)
+            b = self.axis_block(sigma, tau_s)
             eye = np.eye(3)
             Q[pos, pos] = b[0, 0] * eye
             Q[pos, rate] = Q[rate, pos] = b[0, 1] * eye

@@ -60,21 +60,20 @@ import numpy as np
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_mrp, quat_to_rotvec
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import euler_rhs
+from estimators.process_noise import DisturbanceBudget
 
 #: Layout of the attitude state.
 SIGMA, OMEGA, K = slice(0, 3), slice(3, 6), slice(6, 8)
 
 
-def attitude_process_noise(dt_s: float, *, torque_accel_rad_s2: float = 1e-7, k_rate_per_s: float = 1e-4) -> np.ndarray:
-    """``Q`` (8×8) of one prediction over ``dt_s``: random-walk noise on ``ω`` and ``k``.
+def attitude_process_noise(dt_s: float, budget: DisturbanceBudget, *, k_rate_per_s: float = 1e-4) -> np.ndarray:
+    """``Q`` (8×8) of one prediction over ``dt_s`` from the disturbance budget of what eq. 29 leaves out.
 
-    * ``ω``: an unmodelled body torque (solar pressure, gravity gradient,
-      residual outgassing) of ``J``-normalised size ``torque_accel_rad_s2`` —
-      1e-7 rad/s² is the gravity-gradient acceleration ``3 n² ΔJ/J`` of a
-      strongly asymmetric body at 800 km (``n = 1.04e-3`` rad/s,
-      ``ΔJ/J ≈ 0.03``) — acting as white noise: ``Q_ω = a² Δt² I`` per
-      step (rad²/s²), and a matching ``Q_σ`` term ``(a Δt²/4)² I`` for the
-      attitude it integrates into (MRP ≈ angle/4);
+    * ``[δσ, ω]``: the target's unmodelled angular acceleration (gravity-gradient torque, nutation damping;
+      ``budget.sigma_alpha_rad_s2`` per axis, correlation time ``budget.correlation_time_s``) as the
+      white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1, ``q = 2 σ² T_c``):
+      per axis ``Q_θθ = q τ³/3``, ``Q_θω = q τ²/2``, ``Q_ωω = q τ``, with the attitude block taken to the
+      error MRP (``δσ ≈ δθ/4``: ``Q_σσ = Q_θθ/16``, ``Q_σω = Q_θω/4``);
     * ``k``: the ratios are constant for a rigid body, but the filter would
       otherwise drive their variance to zero while the torque-free model
       (eq. 29) is only an approximation; a random walk of
@@ -85,9 +84,12 @@ def attitude_process_noise(dt_s: float, *, torque_accel_rad_s2: float = 1e-7, k_
       (``tests/studies/test_combina.py``).
     """
     if not (np.isfinite(dt_s) and dt_s > 0):
-        raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
-    a, qk = float(torque_accel_rad_s2), float(k_rate_per_s)
-    return np.diag([(a * dt_s**2 / 4.0) ** 2] * 3 + [(a * dt_s) ** 2] * 3 + [qk**2 * dt_s] * 2)
+        raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
+    b = budget.axis_block(budget.sigma_alpha_rad_s2, dt_s) * np.array([[1.0 / 16.0, 0.25], [0.25, 1.0]])
+    Q = np.zeros((8, 8))
+    Q[:6, :6] = np.kron(b, np.eye(3))
+    Q[K, K] = float(k_rate_per_s) ** 2 * dt_s * np.eye(2)
+    return Q
 
 
 def physical_k(k) -> np.ndarray:

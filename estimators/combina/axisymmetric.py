@@ -43,6 +43,30 @@ import numpy as np
 from estimators.attitude import dcm_to_mrp, mrp_to_dcm
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import axis_from_spherical, axisymmetric_rhs, spherical_from_axis
+from estimators.process_noise import DisturbanceBudget
+
+
+def axisymmetric_process_noise(dt_s: float, budget: DisturbanceBudget, gamma_over_a_rad_s: float, n_states: int = 3) -> np.ndarray:
+    """``Q`` (n_states × n_states) of one prediction over ``dt_s`` for ``[φ, δ, Γ/A(, σ_IΓ)]`` from the disturbance budget.
+
+    Eqs 35–40 hold ``Γ`` constant; an unmodelled torque (gravity gradient: ``budget.sigma_alpha_rad_s2`` as an angular
+    acceleration ``α = τ/A`` per axis) changes ``Γ/A`` at ``α`` along ``Γ`` and turns ``Γ`` at ``α/(Γ/A)`` across it,
+    which tilts the precession cone of ``J`` about the fixed ``I_Γ`` by as much. Both enter as random walks with the
+    budget's white-noise equivalent ``q = σ² max(min(2 T_c, H), τ)`` (:meth:`estimators.process_noise.DisturbanceBudget.intensity`):
+    ``Q_ΓΓ = q τ`` and ``Q_φφ = Q_δδ = q τ / (Γ/A)²`` — an order-of-magnitude map of the cone's tilt onto the two angles
+    (``φ``'s own ``1/cos δ`` is left out), stated as such. ``σ_IΓ`` is a constant of the model: no noise.
+    """
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
+    if not (np.isfinite(gamma_over_a_rad_s) and gamma_over_a_rad_s > 0):
+        raise ValueError(f"gamma_over_a_rad_s: {gamma_over_a_rad_s!r}: expected a positive, finite precession rate in rad/s")
+    if n_states not in (3, 6):
+        raise ValueError(f"n_states: {n_states!r}: expected 3 (I_Γ known) or 6 (I_Γ estimated)")
+    qt = budget.intensity(budget.sigma_alpha_rad_s2, dt_s) * dt_s
+    Q = np.zeros((n_states, n_states))
+    Q[0, 0] = Q[1, 1] = qt / gamma_over_a_rad_s**2
+    Q[2, 2] = qt
+    return Q
 
 
 def wrap_pi(a):
@@ -140,7 +164,7 @@ class AxisymmetricUKF:
         self.C_GammaI = None if C_GammaI is None else np.asarray(C_GammaI, dtype=float)
         self.core = UnscentedCore(x0, P0, alpha=alpha, beta=beta, kappa=kappa, residual_x=_residual_azimuth_first)
         self.max_step_s = float(max_step_s)
-        self.Q = None if Q is None else np.asarray(Q, dtype=float)
+        self.Q = Q if Q is None or callable(Q) else np.asarray(Q, dtype=float)
 
     @property
     def x(self) -> np.ndarray:
@@ -181,7 +205,8 @@ class AxisymmetricUKF:
         """Eqs 10–13 with the precession model over ``dt_s`` seconds."""
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
-        self.core.predict(lambda X: self._propagate(X, dt_s), Q=self.Q, mean_fn=_mean_azimuth_first)
+        Q = self.Q(dt_s) if callable(self.Q) else self.Q
+        self.core.predict(lambda X: self._propagate(X, dt_s), Q=Q, mean_fn=_mean_azimuth_first)
 
     def h(self, X) -> np.ndarray:
         """Eq. 41: sigma points to the azimuth and elevation of ``J`` in ``I``."""

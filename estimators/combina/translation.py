@@ -25,6 +25,7 @@ import numpy as np
 
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
+from estimators.process_noise import DisturbanceBudget
 
 
 @dataclass(frozen=True)
@@ -49,6 +50,19 @@ SI_UNITS = ScaledUnits(TU_s=1.0, LU_m=1.0)
 """The identity scaling: the filter runs in SI."""
 
 
+def translational_process_noise(dt_s: float, budget: DisturbanceBudget) -> np.ndarray:
+    """``Q`` (6×6, SI) over ``[r_L, v_L]`` for one prediction of ``dt_s`` s from the disturbance budget.
+
+    Eq. 9 is the two-body relative motion; what it leaves out (differential J2, drag, solar pressure:
+    ``budget.sigma_a_m_s2`` per LVLH axis, correlation time ``budget.correlation_time_s``) enters as the
+    white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1): per axis
+    ``Q_rr = q τ³/3``, ``Q_rv = q τ²/2``, ``Q_vv = q τ`` with ``q = 2 σ² T_c``.
+    """
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
+    return np.kron(budget.axis_block(budget.sigma_a_m_s2, dt_s), np.eye(3))
+
+
 class TranslationalUKF:
     """UKF on ``[r_L, v_L]`` with NERM propagation (eq. 9) and position measurements (eq. 14).
 
@@ -66,8 +80,9 @@ class TranslationalUKF:
         internal units (``SI_UNITS`` by default).
     max_step_s : float
         longest RK4 step of the propagation (steps are split to stay below it).
-    Q : (6, 6) SI, optional
-        additive process noise per prediction (the paper uses none).
+    Q : (6, 6) SI or callable, optional
+        additive process noise per prediction, or ``Q(dt_s)`` (e.g. :func:`translational_process_noise`
+        with a budget); the paper uses none.
     """
 
     def __init__(self, x0_L, P0, *, n_rad_s: float, R_t_m: float, mu: float = MU_EARTH, units: ScaledUnits = SI_UNITS,
@@ -82,7 +97,7 @@ class TranslationalUKF:
         self._R_t = R_t_m / units.LU_m
         self._mu = mu * units.TU_s**2 / units.LU_m**3
         self._max_step = max_step_s / units.TU_s
-        self._Q = None if Q is None else np.asarray(Q, dtype=float) / D
+        self._Q = Q if Q is None or callable(Q) else np.asarray(Q, dtype=float)
         self.core = UnscentedCore(np.asarray(x0_L, dtype=float) / self._d, np.asarray(P0, dtype=float) / D, alpha=alpha, beta=beta, kappa=kappa)
 
     # ---- SI views of the internal state
@@ -108,7 +123,8 @@ class TranslationalUKF:
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
         dt = dt_s / self.units.TU_s
-        self.core.predict(lambda X: self._propagate(X, dt), Q=self._Q)
+        Q = self._Q(dt_s) if callable(self._Q) else self._Q
+        self.core.predict(lambda X: self._propagate(X, dt), Q=None if Q is None else Q / np.outer(self._d, self._d))
 
     def innovation(self, r_meas_L, R_m2) -> Innovation:
         """Eqs 14–17, 23 for a measured position ``r_meas_L`` (m) with covariance ``R_m2`` (m²).

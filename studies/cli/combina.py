@@ -15,6 +15,7 @@ from pathlib import Path
 
 import typer
 
+from estimators.perturbations import TRUTH_PHYSICS
 from studies.engine import validate as v
 from studies.engine.io import output_folder, write_json, write_table
 from studies.recording.combina import states_table, write_recording
@@ -75,11 +76,13 @@ def register(app: typer.Typer) -> None:
         prior: str = typer.Option("none", help="spin prior: none | init | proxy", callback=v.text()),
         prior_error: float = typer.Option(0.05, help="relative error of the spin prior", callback=v.number(0, 1, lo_open=True, hi_open=True)),
         axis_frame: str = typer.Option("known", help="axisymmetric mode: known | estimated frame I_Gamma", callback=v.text()),
+        truth: str = typer.Option("torque-free", help="truth physics: torque-free (what the filters model) or perturbed (gravity gradient, "
+                                  "J2, drag, nutation damping; the filters' process noise budgets for it)", callback=v.choice(TRUTH_PHYSICS)),
         out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
         """CoMBiNa relative navigation (Maestrini et al. §VI): writes metrics.json, states.parquet, combina.rrd."""
         cfg = CombinaConfig(target=target, measurements=pose_source, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior,
-                            prior_error=prior_error, axis_frame=axis_frame, quick=quick)
+                            prior_error=prior_error, axis_frame=axis_frame, quick=quick, truth=truth)
         m = run_command(cfg, out)
         c = m["components"]
         summary = ", ".join(f"{k}: {'ok' if v['converged'] else 'not converged'}" for k, v in c.items())

@@ -5,14 +5,16 @@ import pytest
 
 from estimators.attitude import attitude_angle, mrp_to_quat, quat_conjugate, quat_multiply, quat_to_mrp, random_quaternion, rotvec_to_quat
 from estimators.combina.acquisition import acquire_attitude
-from estimators.combina.attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k
+from estimators.combina.attitude import AttitudeUKF, error_mrp_noise_covariance, physical_k
 from estimators.dynamics import inertia_from_k, integrate_absolute
+from studies.sim.combina import process_noise
 
 TU_S = 963.65  # the CoMBiNa scenario's time unit (1/n)
 #: Eq. 48 of Maestrini et al.: P_0 = 0.1 I in scaled units (attitude MRP, rate in rad/TU, k).
 P0 = np.diag([0.1] * 3 + [0.1 / TU_S**2] * 3 + [0.1] * 2)
 SD_ATT = np.deg2rad(2.0)
 DT_S = 3.03  # 0.33 Hz
+Q_ATT = process_noise("asymmetric")[1]  # the closed loop's attitude process noise
 
 
 def _arc(seed: int, rate_rad_s: float, n: int, roll_axis=None):
@@ -37,7 +39,7 @@ def _arc(seed: int, rate_rad_s: float, n: int, roll_axis=None):
 
 def _ukf_k(t, q_meas, x0) -> np.ndarray:
     """k after the attitude UKF's own corrections of the same measurements (the loop's settings: process noise, 3 iterations)."""
-    f = AttitudeUKF(x0, P0, Q=attitude_process_noise, iterations=3)
+    f = AttitudeUKF(x0, P0, Q=Q_ATT, iterations=3)
     R = error_mrp_noise_covariance(SD_ATT)
     t_prev = 0.0
     for ti, q in zip(t, q_meas):
@@ -114,7 +116,7 @@ def test_initial_state_posterior_is_consistent_and_the_filter_carries_it():
         assert a.t_s == 0.0
         e = np.concatenate([quat_to_mrp(quat_multiply(quat_conjugate(mrp_to_quat(a.x[:3])), truth.q_IB[0])), truth.w_B[0] - a.x[3:6], k - a.x[6:]])
         nees_0.append(float(e @ np.linalg.solve(a.P, e)))
-        f = AttitudeUKF(a.x, a.P, Q=attitude_process_noise)
+        f = AttitudeUKF(a.x, a.P, Q=Q_ATT)
         f.predict(t[-1] - a.t_s)
         e = np.concatenate([f.error_mrp(truth.q_IB[-1]), truth.w_B[-1] - f.x[3:6], k - f.x[6:]])
         nees_n.append(float(e @ np.linalg.solve(f.P, e)))

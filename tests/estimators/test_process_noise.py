@@ -117,3 +117,31 @@ def test_budgeted_tuning_covers_the_perturbed_truths_disturbances(scenario):
     assert acc <= PERTURBED_BUDGET.sigma_a_m_s2 <= 2 * acc
     assert kdot_from_dissipation(b.angular_T["dissipation"].rms, np.linalg.norm(sc.w_T0_T_rad_s)) <= PERTURBED_BUDGET.sigma_kdot_1_s
     assert get_tuning("budgeted").budget is PERTURBED_BUDGET
+
+
+def test_horizon_caps_the_white_noise_equivalent_of_a_slow_disturbance():
+    """Over t ≪ T_c a Gauss–Markov acceleration is a constant (variance σ² t²); ``horizon_s`` H matches it at H: q = σ² H,
+    and the random walk's variance after H equals the constant's, σ² H²; without a horizon q = 2 σ² T_c."""
+    slow = DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=2e-7, correlation_time_s=850.0)
+    capped = DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=2e-7, correlation_time_s=850.0, horizon_s=300.0)
+    assert slow.intensity(1e-7, 3.0) == pytest.approx(2 * 1e-14 * 850.0)
+    q = capped.intensity(1e-7, 3.0)
+    assert q * 300.0 == pytest.approx((1e-7 * 300.0) ** 2)
+    assert capped.intensity(1e-7, 500.0) == pytest.approx(1e-14 * 500.0)  # never below one step's constant acceleration
+    with pytest.raises(ValueError, match="horizon_s"):
+        DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=0.0, horizon_s=0.0)
+
+
+def test_combina_translational_noise_is_eq_1_per_lvlh_axis():
+    """CoMBiNa's translational Q over [r_L, v_L]: eq. 1 per axis, no coupling between axes, positive definite."""
+    from estimators.combina.translation import translational_process_noise
+
+    b = DisturbanceBudget(sigma_alpha_rad_s2=0.0, sigma_a_m_s2=1e-7, correlation_time_s=850.0, horizon_s=300.0)
+    Q = translational_process_noise(3.0, b)
+    block = white_noise_acceleration(1e-14 * 300.0, 3.0)
+    for i in range(3):
+        assert Q[np.ix_([i, 3 + i], [i, 3 + i])] == pytest.approx(block, rel=1e-12)
+    off = Q.copy()
+    for i in range(3):
+        off[np.ix_([i, 3 + i], [i, 3 + i])] = 0.0
+    assert np.all(off == 0.0) and np.linalg.eigvalsh(Q).min() > 0

@@ -1,6 +1,8 @@
 """The CoMBiNa closed loop (Maestrini et al. §VI) with simulated BCPD measurements: the issue's "tests that must hold".
 
-Ten seeds per case; the truth of each target is integrated once and shared.
+Ten seeds per case; the truth of each target is integrated once and shared. The filters' process noise budgets for the
+perturbed truth (gravity gradient, J2, drag: ``studies.sim.combina.COMBINA_BUDGETS``, issue 31): on that truth their NEES is
+tested two-sided, on the torque-free one (the paper's, which most tests use) for over-confidence and at most 2× conservatism.
 Seeds change the initial estimate (drawn from P_0 of eq. 48) and the
 measurement noise/outliers.
 """
@@ -59,7 +61,8 @@ def test_truth_relative_motion_obeys_nerm(truths):
 
 def test_asymmetric_target_errors_inside_3sigma_after_convergence(asym):
     """Every seed converges; with R equal to the simulated registration noise (not the paper's 4× / 23°), the
-    final NEES summed over the 10 independent seeds lies in the two-sided 99% χ² band of 10 × dof, per filter."""
+    final NEES summed over the 10 independent seeds lies below the 99.5 % quantile of χ²(10 × dof) and above half its
+    0.5 % quantile (the perturbed truth's process noise makes the filters conservative here), per filter."""
     final = {"translation": [], "attitude": []}
     for run, m in asym:
         c = m["components"]
@@ -73,13 +76,13 @@ def test_asymmetric_target_errors_inside_3sigma_after_convergence(asym):
         assert np.rad2deg(4 * np.arctan(c["sigma"]["final_error"])) < 3.0  # deg
     for name, dof in (("translation", 6), ("attitude", 8)):
         n = len(final[name]) * dof
-        assert chi2.ppf(0.005, n) <= np.sum(final[name]) <= chi2.ppf(0.995, n), (name, np.round(final[name], 1))
+        assert chi2.ppf(0.005, n) / 2.0 <= np.sum(final[name]) <= chi2.ppf(0.995, n), (name, np.round(final[name], 1))
 
 
 def test_inertia_ratios_converge_more_slowly(asym):
     """k error and 3σ shrink over 2 TU in every seed; k converges later than ω (Fig. 11); k's final NEES
-    (2 dof) summed over the 10 seeds lies in the two-sided 99% χ²(20) band (without process noise on k its
-    covariance collapsed and k ended 5–45σ off)."""
+    (2 dof) summed over the 10 seeds lies below the 99.5 % quantile of χ²(20) and above half its 0.5 % quantile
+    (without process noise on k its covariance collapsed and k ended 5–45σ off)."""
     later, nees = 0, []
     for run, m in asym:
         t, e, sd = component_errors(run)["k"]
@@ -90,7 +93,7 @@ def test_inertia_ratios_converge_more_slowly(asym):
         tk = m["components"]["k"]["convergence_time_s"]
         later += tk is None or tk > m["components"]["w"]["convergence_time_s"]
     assert later >= 9
-    assert chi2.ppf(0.005, 2 * len(nees)) <= np.sum(nees) <= chi2.ppf(0.995, 2 * len(nees)), np.round(nees, 1)
+    assert chi2.ppf(0.005, 2 * len(nees)) / 2.0 <= np.sum(nees) <= chi2.ppf(0.995, 2 * len(nees)), np.round(nees, 1)
 
 
 def test_symmetry_never_detected_on_the_asymmetric_target(asym, asym_prior):
@@ -131,7 +134,7 @@ def test_every_gate_decision_is_recorded(asym):
 
 def test_proxy_rate_replaces_rejected_measurements(truths):
     """--prior proxy: one rate update per rejected attitude measurement; the filter stays consistent (final
-    attitude NEES summed over 3 seeds in the two-sided 99% χ²(24) band)."""
+    attitude NEES summed over 3 seeds below the 99.5 % quantile of χ²(24), above half its 0.5 % quantile)."""
     nees = []
     for seed in range(3):
         run = run_combina(CombinaConfig(target="asymmetric", seed=seed, prior="proxy"), truth=truths["asymmetric"])
@@ -141,7 +144,7 @@ def test_proxy_rate_replaces_rejected_measurements(truths):
         for name in ("sigma", "w"):
             assert m["components"][name]["converged"]
         nees.append(float(filter_nees(run)["attitude"][1][-1]))
-    assert chi2.ppf(0.005, 24) <= np.sum(nees) <= chi2.ppf(0.995, 24), np.round(nees, 1)
+    assert chi2.ppf(0.005, 24) / 2.0 <= np.sum(nees) <= chi2.ppf(0.995, 24), np.round(nees, 1)
 
 
 def test_axisymmetric_variant_estimating_the_frame(truths):
@@ -175,3 +178,37 @@ def test_translation_started_beyond_its_gate_restarts_from_the_measurements():
         assert run.translation_restarts >= 1
         tt, e, dof = filter_nees(run)["translation"]
         assert np.all(e[-10:] <= chi2.ppf(1 - 0.01 / 10, dof)), (seed, np.round(e[-10:], 1))
+
+
+def _nees_in_band(runs) -> dict[str, tuple[float, float]]:
+    """Per filter, pooled over runs: fractions of the steps after the first 0.3 of a run with NEES in / above its 95 % band."""
+    flags: dict[str, list] = {}
+    for run in runs:
+        for name, (t, nees, dof) in filter_nees(run).items():
+            lo, hi = chi2.ppf([0.025, 0.975], dof)
+            x = nees[t > 0.3 * t[-1]]
+            flags.setdefault(name, []).append(np.stack([(x > lo) & (x < hi), x >= hi]))
+    return {name: tuple(np.round(np.concatenate(f, axis=1).mean(axis=1), 3).tolist()) for name, f in flags.items()}
+
+
+@pytest.mark.slow
+def test_budgeted_filters_are_consistent_on_the_perturbed_truth():
+    """On the perturbed truth, with Q from the disturbance budget, every filter's NEES lies in its 95 % band on ≥ 85 % of the
+    steps after the first 0.3 of the run, pooled over seeds (6 asymmetric, 4 symmetric; measured on 30 asymmetric seeds:
+    translational 97 %, attitude 93 %). Without the budget (no translational Q, a white 1e-7 rad/s² per step on ω): 55 % and
+    5 %, and the axisymmetric filter's NEES/dof ~4000."""
+    n = np.floor(2.0 * TU / DT) * DT
+    band = {}
+    for target, seeds in (("asymmetric", range(1, 7)), ("symmetric", range(1, 5))):
+        truth = simulate_lvlh_truth(target, n, DT, physics="perturbed")
+        runs = [run_combina(CombinaConfig(target=target, seed=seed, truth="perturbed"), truth=truth) for seed in seeds]
+        band[target] = _nees_in_band(runs)
+    inside = {(tg, f): b[0] for tg, bands in band.items() for f, b in bands.items() if (tg, f) != ("symmetric", "attitude")}
+    assert min(inside.values()) >= 0.85, band  # the symmetric target's attitude filter is replaced at the symmetry switch
+
+
+def test_budgeted_filters_are_not_over_confident_on_the_torque_free_truth(asym):
+    """On the torque-free truth the budget covers disturbances that are not there: conservative (measured on 30 seeds: 26 % of
+    the attitude filter's steps below the band), never over-confident: ≤ 5 % of the steps above the band."""
+    band = _nees_in_band([run for run, _ in asym])
+    assert band["translation"][1] <= 0.05 and band["attitude"][1] <= 0.05, band

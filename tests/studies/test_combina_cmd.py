@@ -12,8 +12,10 @@ from tests.rerun_cli import assert_rrd_verifies
 
 def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
     out = tmp_path / "run"
-    assert main(["combina", "--target", "atlas-centaur", "--pose-source", "simulated", "--duration-tu", "2", "--quick", "--seed", "3", "--out", str(out)]) == 0
+    assert main(["combina", "--target", "atlas-centaur", "--pose-source", "simulated", "--duration-tu", "2", "--quick", "--seed", "3",
+                 "--truth", "perturbed", "--out", str(out)]) == 0
     m = json.loads((out / "metrics.json").read_text())
+    assert m["truth"] == "perturbed"
     assert m["symmetry_detected"] and m["mode"] == "axisymmetric"
     for name in ("r", "v", "sigma", "w", "k", "phi", "delta", "gamma_over_a"):
         assert set(m["components"][name]) >= {"converged", "final_error", "fraction_within_3sigma"}
@@ -37,6 +39,7 @@ def test_combina_quick_writes_metrics_states_and_recording(tmp_path):
         (["--duration-tu", "-2"], "--duration-tu -2.0: expected a finite number"),
         (["--prior", "maybe"], "prior must be one of none|init|proxy"),
         (["--prior-error", "2"], "--prior-error 2.0: expected a finite number within (0, 1)"),
+        (["--truth", "gravity"], "--truth 'gravity': expected torque-free or perturbed"),
     ],
 )
 def test_bad_input_one_line_nonzero_nothing_written(tmp_path, capsys, args, message):
