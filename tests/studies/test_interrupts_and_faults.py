@@ -337,7 +337,7 @@ def test_unreachable_scheduler_is_refused_after_the_given_timeout(tmp_path, caps
 HEAVY = ("pandas", "rerun", "numba", "mitsuba", "scipy", "astropy", "distributed", "studies.engine.registry", "estimators.navigation")
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"]])
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"], ["run", "--help"], ["run", "--durration", "5"]])
 def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
     code = ("import sys; from studies.cli import main; code = main(sys.argv[1:]); "
             f"print(sorted(m for m in {HEAVY!r} if m in sys.modules)); sys.exit(code)")
@@ -349,8 +349,26 @@ def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
         assert res.returncode == 0 and res.stdout.splitlines()[0] == f"lcnav {version()}"
     elif argv == ["--help"]:
         assert res.returncode == 0 and all(f"{name} " in res.stdout for name in COMMANDS)
+    elif argv == ["run", "--help"]:  # its help lists the libraries' names (from studies.cli.choices)
+        assert res.returncode == 0 and "ekf|ukf" in res.stdout and "relinearized" in res.stdout, res.stdout
     else:
         assert res.returncode == 2 and ONE_FORM.match(res.stderr.strip())
+
+
+def test_run_help_choices_are_the_libraries_values():
+    """The literals ``lcnav run --help`` shows (:mod:`studies.cli.choices`) equal the values the run uses."""
+    from estimators.measurement import NOISE_MODELS, PoseNoise
+    from estimators.navigation import FILTERS
+    from estimators.perturbations import TRUTH_PHYSICS
+    from estimators.prior import PROXY_MODES
+    from estimators.tuning import DEFAULT_TUNING, TUNINGS
+    from studies.cli import choices
+    from studies.sim.navigation import PRIOR_USES
+
+    assert choices.FILTERS == tuple(FILTERS) and choices.PRIOR_USES == tuple(PRIOR_USES) and choices.PROXY_MODES == tuple(PROXY_MODES)
+    assert choices.TUNINGS == tuple(TUNINGS) and choices.DEFAULT_TUNING == DEFAULT_TUNING
+    assert choices.NOISE_MODELS == tuple(NOISE_MODELS) and choices.TRUTH_PHYSICS == tuple(TRUTH_PHYSICS)
+    assert (choices.POSE_NOISE_MODEL, choices.POSE_SIGMA_Q_RAD, choices.POSE_SIGMA_R_M) == (PoseNoise.model, PoseNoise.sigma_q_rad, PoseNoise.sigma_r_m)
 
 
 def test_help_listing_is_each_command_docstring_and_flags_take_no_value(tmp_path, capsys):
@@ -365,7 +383,5 @@ def test_help_listing_is_each_command_docstring_and_flags_take_no_value(tmp_path
 
 
 def test_run_out_is_required_before_any_work(capsys, monkeypatch):
-    from studies.cli import run as run_cmd
-
-    monkeypatch.setattr(run_cmd, "simulate_truth", lambda *a, **k: pytest.fail("the truth was simulated without --out"))
+    monkeypatch.setattr("studies.sim.truth.simulate_truth", lambda *a, **k: pytest.fail("the truth was simulated without --out"))
     assert refusal(capsys, ["run", "--duration", "3000"]).startswith("lcnav: error: --out: missing: expected it given (Output folder")
