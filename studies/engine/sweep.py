@@ -171,8 +171,10 @@ def _sigint_blocked():
 
     Around the creation of a local cluster: its event-loop thread and the threads that spawn the worker processes inherit
     the mask, so a worker starts with SIGINT held (:data:`WORKER_PRELOAD` unblocks it once its quiet handler is
-    installed). A Ctrl-C meanwhile is delivered to this thread when the block ends (raising KeyboardInterrupt there).
-    The same pattern as :mod:`multiprocessing.resource_tracker`, which starts its process with SIGINT blocked.
+    installed). A Ctrl-C meanwhile waits until the block ends and raises KeyboardInterrupt there — unless a thread of
+    lcnav started before the block takes it, in which case Python raises it in the main thread at once, as without the
+    block; workers already started then exit with lcnav (Dask's parent-alive pipe). The same pattern as
+    :mod:`multiprocessing.resource_tracker`, which starts its process with SIGINT blocked.
     """
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
