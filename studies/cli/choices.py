@@ -1,9 +1,10 @@
-"""The names and defaults that ``lcnav run``'s options list in their help, as literals.
+"""The names and defaults that ``lcnav run``'s and ``lcnav study``'s options list in their help, as literals.
 
-Importing the libraries that define them (:mod:`estimators.navigation`, :mod:`estimators.tuning`, ...) pulls in numba,
-SciPy and pandas and took ~8 s, so ``lcnav run --help`` and a misspelt option of ``run`` waited that long (issue 30).
-Each value here is the library's, copied; ``tests/studies/test_interrupts_and_faults.py`` checks that they are equal, so a
-change in a library that is not made here fails a test instead of showing a stale help text.
+Importing the libraries that define them (:mod:`estimators.navigation`, :mod:`estimators.tuning`,
+:mod:`studies.engine.registry`, ...) pulls in numba, SciPy, pandas and every study: ``lcnav run --help`` and a
+misspelt option of ``run`` took ~8 s, ``lcnav study --help`` 4.6 s (issue 30). Each value here is the library's,
+copied; ``tests/studies/test_interrupts_and_faults.py`` checks that they are equal, so a change in a library that is
+not made here fails a test instead of showing a stale help text.
 """
 
 from __future__ import annotations
@@ -26,3 +27,9 @@ POSE_SIGMA_Q_RAD = 0.12
 POSE_SIGMA_R_M = 0.37
 #: Truth physics (:data:`estimators.perturbations.TRUTH_PHYSICS`).
 TRUTH_PHYSICS = ("torque-free", "perturbed")
+#: Registered studies (keys of :data:`studies.engine.registry.STUDIES`).
+STUDIES = ("truth", "tuning", "init", "proxy", "chain", "combina", "coverage", "timing")
+#: How long a ``--scheduler`` has to answer by default, and at most, s (:data:`studies.engine.sweep.CONNECT_TIMEOUT_S`,
+#: :data:`studies.engine.sweep.MAX_CONNECT_TIMEOUT_S`).
+CONNECT_TIMEOUT_S = 20.0
+MAX_CONNECT_TIMEOUT_S = 600.0

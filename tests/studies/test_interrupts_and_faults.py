@@ -331,7 +331,8 @@ def test_unreachable_scheduler_is_refused_after_the_given_timeout(tmp_path, caps
 HEAVY = ("pandas", "rerun", "numba", "mitsuba", "scipy", "astropy", "distributed", "studies.engine.registry", "estimators.navigation")
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"], ["run", "--help"], ["run", "--durration", "5"]])
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"], ["run", "--help"], ["run", "--durration", "5"],
+                                  ["study", "--help"]])
 def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
     code = ("import sys; from studies.cli import main; code = main(sys.argv[1:]); "
             f"print(sorted(m for m in {HEAVY!r} if m in sys.modules)); sys.exit(code)")
@@ -345,12 +346,15 @@ def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
         assert res.returncode == 0 and all(f"{name} " in res.stdout for name in COMMANDS)
     elif argv == ["run", "--help"]:  # its help lists the libraries' names (from studies.cli.choices)
         assert res.returncode == 0 and "ekf|ukf" in res.stdout and "relinearized" in res.stdout, res.stdout
+    elif argv == ["study", "--help"]:
+        text = re.sub(r"[\s│]+", " ", res.stdout)  # rich's box wraps the help text
+        assert res.returncode == 0 and "truth, tuning, init, proxy, chain," in text and "(default 20, at most 600)" in text, res.stdout
     else:
         assert res.returncode == 2 and ONE_FORM.match(res.stderr.strip())
 
 
-def test_run_help_choices_are_the_libraries_values():
-    """The literals ``lcnav run --help`` shows (:mod:`studies.cli.choices`) equal the values the run uses."""
+def test_run_and_study_help_choices_are_the_libraries_values():
+    """The literals ``lcnav run --help`` and ``lcnav study --help`` show (:mod:`studies.cli.choices`) equal the values the run uses."""
     from estimators.measurement import NOISE_MODELS, PoseNoise
     from estimators.navigation import FILTERS
     from estimators.perturbations import TRUTH_PHYSICS
@@ -363,6 +367,10 @@ def test_run_help_choices_are_the_libraries_values():
     assert choices.TUNINGS == tuple(TUNINGS) and choices.DEFAULT_TUNING == DEFAULT_TUNING
     assert choices.NOISE_MODELS == tuple(NOISE_MODELS) and choices.TRUTH_PHYSICS == tuple(TRUTH_PHYSICS)
     assert (choices.POSE_NOISE_MODEL, choices.POSE_SIGMA_Q_RAD, choices.POSE_SIGMA_R_M) == (PoseNoise.model, PoseNoise.sigma_q_rad, PoseNoise.sigma_r_m)
+    from studies.engine.registry import STUDIES
+    from studies.engine.sweep import CONNECT_TIMEOUT_S, MAX_CONNECT_TIMEOUT_S
+
+    assert choices.STUDIES == tuple(STUDIES) and (choices.CONNECT_TIMEOUT_S, choices.MAX_CONNECT_TIMEOUT_S) == (CONNECT_TIMEOUT_S, MAX_CONNECT_TIMEOUT_S)
 
 
 def test_help_listing_is_each_command_docstring_and_flags_take_no_value(tmp_path, capsys):
