@@ -30,6 +30,10 @@ CASES = [
     ("`lcnav run --durration 5` (misspelt option of a command)", ["-m", "studies.cli", "run", "--durration", "5"]),
     ("`lcnav run --help`", ["-m", "studies.cli", "run", "--help"]),
     ("`lcnav study --help`", ["-m", "studies.cli", "study", "--help"]),
+    ("`lcnav simulate --help`", ["-m", "studies.cli", "simulate", "--help"]),
+    ("`lcnav combina --help`", ["-m", "studies.cli", "combina", "--help"]),
+    ("`lcnav demo --help`", ["-m", "studies.cli", "demo", "--help"]),
+    ("`lcnav inspect --help`", ["-m", "studies.cli", "inspect", "--help"]),
 ]
 
 

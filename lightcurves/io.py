@@ -138,13 +138,13 @@ def _column(table: Table, name: str, unit, n: int) -> np.ndarray:
     col = table[name]
     mask = np.ma.getmaskarray(col)
     if mask.any():
-        raise BadSeries(f"light-curve column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a number in every row")
+        raise BadSeries(f"light-curve column '{name}' row {int(np.flatnonzero(mask)[0]) + 1}: empty: expected a number in every row")
     try:
         if getattr(col, "unit", None) is not None and unit is not None:
             return np.asarray(u.Quantity(col).to_value(unit), dtype=float)
         return np.asarray(col, dtype=float)
     except (ValueError, TypeError, u.UnitsError) as e:
-        raise BadSeries(f"light-curve column '{name}' ({type(e).__name__}: {str(e).splitlines()[0][:100]}); expected numbers in {unit}") from None
+        raise BadSeries(f"light-curve column '{name}': not numbers ({type(e).__name__}: {str(e).splitlines()[0][:100]}): expected numbers in {unit}") from None
 
 
 def _geometry(table: Table, n: int) -> dict:
@@ -173,10 +173,10 @@ def _geometry(table: Table, n: int) -> dict:
 def from_table(table: Table) -> LightCurve:
     """A :class:`LightCurve` from a table with a ``time`` (Time) column and ``mag`` (validated)."""
     if "time" not in table.colnames or "mag" not in table.colnames:
-        raise BadSeries(f"light-curve table needs columns 'time' and 'mag', got {table.colnames}")
+        raise BadSeries(f"light-curve table columns {table.colnames}: no 'time' or no 'mag': expected columns 'time' and 'mag'")
     time = table["time"]
     if not isinstance(time, Time):
-        raise BadSeries("light-curve column 'time' must be an astropy Time column")
+        raise BadSeries(f"light-curve column 'time': {type(table['time']).__name__}: expected an astropy Time column")
     n = len(table)
     mag = _column(table, "mag", u.mag, n)
     mag_err = _column(table, "mag_err", u.mag, n)
@@ -208,15 +208,15 @@ def _numbers(name: str, column, where: str) -> np.ndarray:
     """A CSV column of text cells as floats: every cell a decimal number (no empty cell, no hex, no NaN/inf)."""
     mask = np.ma.getmaskarray(column)
     if mask.any():
-        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a decimal number in every row")
+        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1}: empty: expected a decimal number in every row")
     text = [str(c).strip() for c in np.asarray(column)]
     for i, c in enumerate(text):
         if not _DECIMAL.match(c):
-            raise BadSeries(f"{where}: column '{name}' row {i + 1} holds {c[:40]!r}; expected a decimal number like 9.75 or 1.2e-3")
+            raise BadSeries(f"{where}: column '{name}' row {i + 1}: {c[:40]!r}: expected a decimal number like 9.75 or 1.2e-3")
     values = np.array([float(c) for c in text])
     if not np.all(np.isfinite(values)):
         k = int(np.flatnonzero(~np.isfinite(values))[0])
-        raise BadSeries(f"{where}: column '{name}' row {k + 1} holds {text[k][:40]!r}, beyond a finite float; expected a finite number")
+        raise BadSeries(f"{where}: column '{name}' row {k + 1}: {text[k][:40]!r} (beyond a finite float): expected a finite number")
     return values
 
 
@@ -337,13 +337,13 @@ def _photometry_roles(table: Table, names: dict, where: str) -> tuple[str, str]:
     missing = [c for c in needed if c not in table.colnames]
     if missing:
         hint = "" if "time" in named else "; or name yours, e.g. --columns time=mjd,mag=magnitude,mag_err=err (columns=)"
-        raise BadSeries(f"{where}: the table must contain {', '.join(repr(c) for c in missing)} (it has {table.colnames}); "
+        raise BadSeries(f"{where}: column(s) {', '.join(repr(c) for c in missing)}: missing (the table has {table.colnames}): "
                         f"expected columns 'time' and 'mag' (optionally 'mag_err'), or 'flux' (optionally 'flux_err'){hint}")
     return value, error
 
 
 def _first_bad_time(cells: list[str], time_format: str | None, time_scale: str) -> str:
-    """Which cell of a time column failed to parse (for the message), e.g. ``row 3 holds 'nan'``."""
+    """Which cell of a time column failed to parse (for the message), e.g. ``row 3: 'nan'``."""
     for i, c in enumerate(cells):
         try:
             if time_format in TEXT_TIME_FORMATS or (time_format is None and not _DECIMAL.match(c)):
@@ -353,7 +353,7 @@ def _first_bad_time(cells: list[str], time_format: str | None, time_scale: str) 
             else:
                 float(c)
         except (ValueError, TypeError):
-            return f"row {i + 1} holds {c[:40]!r}"
+            return f"row {i + 1}: {c[:40]!r}"
     return "mixes ISO 8601 text and numbers"
 
 
@@ -362,19 +362,19 @@ def _csv_table(path: Path) -> Table:
     data = path.read_bytes()
     nul = data.find(b"\x00")
     if nul >= 0:
-        raise BadSeries(f"{path.name}: NUL byte at offset {nul}; expected a text CSV with a header 'time,mag[,mag_err]'")
+        raise BadSeries(f"{path.name}: NUL byte at offset {nul}: expected a text CSV with a header 'time,mag[,mag_err]'")
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
-        raise BadSeries(f"{path.name}: not UTF-8 text (byte {e.start}); expected a text CSV with a header 'time,mag[,mag_err]'") from None
+        raise BadSeries(f"{path.name}: byte {e.start}: not UTF-8: expected a text CSV with a header 'time,mag[,mag_err]'") from None
     try:
         table = Table.read(text.splitlines(), format="ascii.csv", guess=False, converters={"*": [convert_numpy(str)]})
     except Exception as e:  # astropy's reader raises several types for malformed text
         first = (str(e).splitlines() or [type(e).__name__])[0]
-        raise BadSeries(f"{path.name}: malformed CSV ({first}); expected a header 'time,mag[,mag_err]' and one row per sample") from None
+        raise BadSeries(f"{path.name}: malformed CSV ({first}): expected a header 'time,mag[,mag_err]' and one row per sample") from None
     cols = [c.strip().lower() for c in table.colnames]
     if len(set(cols)) != len(cols):
-        raise BadSeries(f"{path.name}: CSV header repeats a column ({cols}); expected 'time,mag[,mag_err]' once each")
+        raise BadSeries(f"{path.name}: CSV header {cols}: a column repeats: expected 'time,mag[,mag_err]' once each")
     table.rename_columns(table.colnames, cols)
     return table
 
@@ -389,7 +389,7 @@ def _text_table(table: Table, where: str) -> tuple[Table, set[str]]:
     """
     cols = [c.strip().lower() for c in table.colnames]
     if len(set(cols)) != len(cols):
-        raise BadSeries(f"{where}: the table repeats a column ({cols}); expected each name once")
+        raise BadSeries(f"{where}: columns {cols}: a name repeats: expected each name once")
     out, times = Table(), set()
     for name, col in zip(cols, table.columns.values()):
         if isinstance(col, Time):
@@ -420,7 +420,7 @@ def _csv_times(raw, where: str, time_format: str | None, meta: dict, *, time_sca
     """
     mask = np.ma.getmaskarray(raw)
     if mask.any():
-        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1} is empty; expected a time in every row")
+        raise BadSeries(f"{where}: column '{name}' row {int(np.flatnonzero(mask)[0]) + 1}: empty: expected a time in every row")
     cells = [str(c).strip() for c in np.asarray(raw)]
     numeric = all(_DECIMAL.match(c) for c in cells)
     try:
@@ -432,7 +432,7 @@ def _csv_times(raw, where: str, time_format: str | None, meta: dict, *, time_sca
         if time_format is None:
             looks = ambiguous_time_unit(values)
             if looks is not None:
-                raise AmbiguousTimeUnit(f"{where}: column '{name}' {looks}; expected its unit named with --time-format (time_format=): "
+                raise AmbiguousTimeUnit(f"{where}: column '{name}' {looks}: expected its unit named with --time-format (time_format=): "
                                         f"seconds, mjd, jd, unix, ...")
             return _relative_times(values, meta, "seconds", "assumed: no time format given")
         if time_format in _RELATIVE_UNITS_S:
@@ -442,7 +442,7 @@ def _csv_times(raw, where: str, time_format: str | None, meta: dict, *, time_sca
     except (ValueError, TypeError) as e:
         if isinstance(e, BadSeries):
             raise
-        raise BadSeries(f"{where}: column '{name}' {_first_bad_time(cells, time_format, time_scale)}; expected ISO 8601 like "
+        raise BadSeries(f"{where}: column '{name}' {_first_bad_time(cells, time_format, time_scale)}: expected ISO 8601 like "
                         f"2024-03-21T20:00:00.5 or decimal {time_format or 'seconds'} in every row") from None
 
 
@@ -459,7 +459,7 @@ def _magnitudes(table: Table, names: dict, where: str, value: str, error: str, m
         return y, dy
     if np.any(y <= 0):
         k = int(np.flatnonzero(y <= 0)[0])
-        raise BadSeries(f"{where}: column '{names['flux']}' row {k + 1} holds {y[k]:g}; expected a flux > 0 (a magnitude is −2.5 log10 of it)")
+        raise BadSeries(f"{where}: column '{names['flux']}' row {k + 1}: {y[k]:g}: expected a flux > 0 (a magnitude is −2.5 log10 of it)")
     meta["mag_from_flux"] = f"instrumental magnitudes -2.5 log10({names['flux']}) (zero point unknown)"
     return -2.5 * np.log10(y), None if dy is None else (2.5 / np.log(10.0)) * dy / y
 
@@ -480,7 +480,7 @@ def _lightcurve_from_cells(table: Table, where: str, time_format, time_scale: st
     t_s = (time - time[0]).to_value(u.s)
     if np.any(np.diff(t_s) < 0):
         k = int(np.flatnonzero(np.diff(t_s) < 0)[0])
-        raise BadSeries(f"{where}: time is not increasing (row {k + 2} comes before row {k + 1}); expected rows in time order")
+        raise BadSeries(f"{where}: time of row {k + 2}: before row {k + 1}'s, not increasing: expected rows in time order")
     _, mag, mag_err, n_merged = merge_duplicate_times(t_s, mag, mag_err)
     if n_merged:
         time = time[np.concatenate([[True], np.diff(t_s) > 0])]
@@ -525,14 +525,14 @@ def read_table(path, time_format: str | None = None, *, time_scale: str = "utc",
     path = Path(path)
     fmt = TABLE_FORMATS.get(path.suffix.lower())
     if fmt is None:
-        raise BadSeries(f"{path.name}: not a table file; expected a name ending in {', '.join(TABLE_FORMATS)}")
+        raise BadSeries(f"{path.name}: not a table file: expected a name ending in {', '.join(TABLE_FORMATS)}")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # astropy's notes on unknown units or extra HDUs; the columns are checked below
             table = Table.read(path, format=fmt, **({"astropy_native": True} if fmt == "fits" else {}))  # FITS time columns as Time
     except Exception as e:  # astropy's FITS/VOTable readers raise many types for malformed files
         first = (str(e).splitlines() or [type(e).__name__])[0]
-        raise BadSeries(f"{path.name}: not a readable {fmt} table ({first[:120]}); expected a table with columns time and mag") from None
+        raise BadSeries(f"{path.name}: not a readable {fmt} table ({first[:120]}): expected a table with columns time and mag") from None
     cells, time_columns = _text_table(table, path.name)
     return _lightcurve_from_cells(cells, path.name, time_format, time_scale, columns, frozenset(time_columns))
 
@@ -552,7 +552,7 @@ def read_lightcurve(path, time_format: str | None = None, *, time_scale: str = "
     if suffix in TABLE_FORMATS:
         return read_table(path, time_format, time_scale=time_scale, columns=columns)
     if suffix != ".ecsv":
-        raise BadSeries(f"light-curve file must be .ecsv, .csv, {', '.join(TABLE_FORMATS)}; got {path.name}")
+        raise BadSeries(f"{path.name}: not a light-curve file: expected a name ending in .ecsv, .csv, {', '.join(TABLE_FORMATS)}")
     if time_format is not None or columns:
         raise ReaderOptionError(f"time_format/columns: {time_format!r}/{columns!r}: expected none for an ECSV light curve "
                                 f"({path.name} carries its own time column and units)")

@@ -1,7 +1,9 @@
-"""``lcnav inspect PATH.rrd|RUN_DIR [--export OUT.parquet]``: what a recording holds, and its data back.
+"""``lcnav inspect PATH.rrd|RUN_DIR [--export OUT.parquet] [--screenshot OUT.png]``: what a recording holds, its data back, its picture.
 
 The listing and the export are :mod:`studies.recording.reader`'s; a run folder's ``metrics.json``
-(written by the sweep) is shown with it, a study folder as its runs table.
+(written by the sweep) is shown with it, a study folder as its runs table. ``--screenshot`` draws the
+recording as the viewer opens it (:func:`studies.recording.screenshot.screenshot_recording`, rerun's
+headless viewer).
 """
 
 from __future__ import annotations
@@ -82,6 +84,8 @@ def inspect(
     path: Path = typer.Argument(..., help="A .rrd recording, a run folder (DIR/runs/<run_id>) or a study folder (DIR).", callback=v.path_text()),
     export: Optional[Path] = typer.Option(None, "--export", help="Write the recording's time series to this Parquet file.", callback=v.out_file(".parquet")),
     contents: Optional[list[str]] = typer.Option(None, "--contents", help="Entity-path expression(s) to export, e.g. '/truth/**'.", callback=v.text()),
+    screenshot: Optional[Path] = typer.Option(None, "--screenshot", help="Draw the recording as the viewer opens it (rerun's headless viewer, "
+                                              "software Vulkan) into this PNG.", callback=v.out_file(".png")),
 ) -> None:
     """List what a recording holds (entities, time range, counts) and the run's metrics; optionally export series.
 
@@ -93,9 +97,9 @@ def inspect(
         typer.echo(format_study(path))
         return
     rrds, metrics = _find_recordings(path)
-    if export is not None:
-        if len(rrds) != 1:
-            raise ValueError(f"--export needs exactly one recording; {path} holds {len(rrds)}: give the .rrd file")
+    for flag, given in (("--export", export), ("--screenshot", screenshot)):
+        if given is not None and len(rrds) != 1:
+            raise ValueError(f"{flag} needs exactly one recording; {path} holds {len(rrds)}: give the .rrd file")
     for rrd in rrds:
         typer.echo(format_summary(summarize_recording(rrd)))
     if metrics is not None:
@@ -104,14 +108,32 @@ def inspect(
         for k, value in {**rec.get("params", {}), **rec.get("metrics", {})}.items():
             typer.echo(f"  {k:<28} {value}")
     if export is not None:
-        table, skipped = export_series(rrds[0], contents)
-        if table.shape[1] < 2 or len(table) == 0:
-            raise v.InputError(f"--contents {v.plain(contents)} matches no time series in {str(rrds[0])!r}: expected a pattern naming logged "
-                               f"entities (see the listing above), e.g. '/truth/**'")
-        write_table(export, table)
-        typer.echo(f"exported {len(table)} rows x {table.shape[1]} columns to {export}")
-        if skipped:
-            typer.echo(f"not exported (not fixed-size numbers): {', '.join(skipped)}")
+        _export(rrds[0], export, contents)
+    if screenshot is not None:
+        _screenshot(rrds[0], screenshot)
+
+
+def _export(rrd: Path, export: Path, contents) -> None:
+    table, skipped = export_series(rrd, contents)
+    if table.shape[1] < 2 or len(table) == 0:
+        raise v.InputError(f"--contents {v.plain(contents)} matches no time series in {str(rrd)!r}: expected a pattern naming logged "
+                           f"entities (see the listing above), e.g. '/truth/**'")
+    write_table(export, table)
+    typer.echo(f"exported {len(table)} rows x {table.shape[1]} columns to {export}")
+    if skipped:
+        typer.echo(f"not exported (not fixed-size numbers): {', '.join(skipped)}")
+
+
+def _screenshot(rrd: Path, png: Path) -> None:
+    """``png``: the recording as the viewer opens it; a viewer that cannot draw it is one line, exit 2."""
+    from studies.recording.screenshot import ScreenshotError, screenshot_recording
+
+    try:
+        screenshot_recording(rrd, png)
+    except ScreenshotError as e:
+        raise v.InputError(f"--screenshot {str(png)!r}: {e}: expected a machine whose rerun draws headless (a Vulkan driver: "
+                           "Debian mesa-vulkan-drivers)") from None
+    typer.echo(f"drew {rrd} to {png}")
 
 
 def register(app: typer.Typer) -> None:

@@ -33,26 +33,26 @@ import dataclasses
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
-import pandas as pd
 import typer
 
-from estimators.measurement import NOISE_MODELS, PoseNoise
-from estimators.navigation import FILTERS, SOURCES, NavigationRun
-from estimators.perturbations import TRUTH_PHYSICS, get_truth_physics
-from estimators.prior import PROXY_MODES, BodyRatePrior
-from estimators.state import DK, K_STATES, N_ERROR, W_B
-from estimators.tuning import DEFAULT_TUNING, TUNINGS, get_tuning
-from perception.simulated_pose import parse_faults
+from studies.cli.choices import (DEFAULT_TUNING, FILTERS, NOISE_MODELS, POSE_NOISE_MODEL, POSE_SIGMA_Q_RAD, POSE_SIGMA_R_M, PRIOR_USES,
+                                 PROXY_MODES, TRUTH_PHYSICS, TUNINGS)
 from studies.engine import validate as v
-from studies.engine.io import output_folder, write_json, write_table
-from studies.sim.metrics import GROUPS, SETTLING_S, UNITS, chi_square_band, evaluate, fraction_in_band, nees
-from studies.sim.navigation import PRIOR_USES, NavigationSetup, navigate, one_axis
-from studies.recording.navigation import record_navigation
-from studies.sim.scenarios import get_scenario
-from studies.sim.truth import RELATIVE_COLUMNS, Truth, simulate_truth
+
+if TYPE_CHECKING:  # annotations only
+    import pandas as pd
+
+    from estimators.navigation import NavigationRun
+    from estimators.prior import BodyRatePrior
+    from studies.sim.navigation import NavigationSetup
+    from studies.sim.truth import Truth
+
+# The libraries (estimators, perception, studies.sim, the recording, pandas) are imported in the functions that use them:
+# at module level they made ``lcnav run --help`` and a misspelt option wait ~8 s (issue 30); the help's names and
+# defaults come from :mod:`studies.cli.choices`.
 
 ERROR_NAMES = ["dq_x_rad", "dq_y_rad", "dq_z_rad", "w_x_rad_s", "w_y_rad_s", "w_z_rad_s", "r_x_m", "r_y_m", "r_z_m",
                "v_x_m_s", "v_y_m_s", "v_z_m_s", "k1", "k2"]
@@ -74,6 +74,8 @@ def _floats(text: str, n: int, flag: str, max_abs: float = 1e12) -> np.ndarray:
 
 def _read_measurements(path: Path, t_span: tuple[float, float]):
     """Pose measurements from a Parquet/CSV file: every row finite, unit quaternions, strictly increasing times in the run."""
+    import pandas as pd
+
     v.check_in_file("--measurements", path, (".parquet", ".csv"))
     where = f"--measurements {str(path)!r}"
     try:
@@ -118,6 +120,10 @@ def _read_truth_file(path: Path, t: np.ndarray, scenario: str) -> np.ndarray:
     The file must hold a row within 1 µs of every filter time (it may be sampled more finely)
     and, when it records its scenario, be of ``scenario``.
     """
+    import pandas as pd
+
+    from studies.sim.truth import RELATIVE_COLUMNS
+
     v.check_in_file("--truth-file", path, (".parquet",))
     where = f"--truth-file {str(path)!r}"
     try:
@@ -146,6 +152,8 @@ def _read_truth_file(path: Path, t: np.ndarray, scenario: str) -> np.ndarray:
 
 def _read_prior_json(path: Path, axis: str):
     """A prior from ``lcnav lightcurve prior --json``: a JSON object with numbers ``rate_rad_s`` and ``rate_sigma_rad_s``."""
+    from estimators.prior import BodyRatePrior
+
     v.check_in_file("--prior-json", path, max_bytes=MAX_PRIOR_BYTES)
     where = f"--prior-json {str(path)!r}"
     data = path.read_bytes()
@@ -173,6 +181,11 @@ def _num(v: float):
 
 
 def _states_table(tr: Truth, run: NavigationRun, scored: bool) -> pd.DataFrame:
+    import pandas as pd
+
+    from estimators.navigation import SOURCES
+    from studies.sim.truth import RELATIVE_COLUMNS
+
     cols = {"t_s": tr.t}
     if scored:
         cols.update({f"true_{c}": v for c, v in zip(RELATIVE_COLUMNS, tr.x.T)})
@@ -209,11 +222,11 @@ def run(
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
     runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),
     seed: int = typer.Option(1, help="Seed of the first run.", callback=v.seed(v.MAX_SEED - MAX_RUNS)),
-    noise: str = typer.Option(PoseNoise.model, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).",
+    noise: str = typer.Option(POSE_NOISE_MODEL, help=f"Pose noise model: {'|'.join(NOISE_MODELS)} (the measurements' and the filter's R_d).",
                               callback=v.text(NOISE_MODELS)),
-    sigma_q_rad: float = typer.Option(PoseNoise.sigma_q_rad, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).",
+    sigma_q_rad: float = typer.Option(POSE_SIGMA_Q_RAD, help="Pose attitude noise amplitude, rad (the measurements' and the filter's R_d).",
                                       callback=v.number(0, 3.15, lo_open=True, unit="rad")),
-    sigma_r_m: float = typer.Option(PoseNoise.sigma_r_m, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).",
+    sigma_r_m: float = typer.Option(POSE_SIGMA_R_M, help="Pose position noise amplitude, m (the measurements' and the filter's R_d).",
                                     callback=v.number(0, 1e3, lo_open=True, unit="m")),
     gate_confidence: float = typer.Option(0.99, help="Gate confidence per source (0 disables the gates).", callback=v.number(0, 1, hi_open=True)),
     gate_start: float = typer.Option(10.0, help="Gates test measurements from this time on, s (acquisition before).", callback=v.number(0, 1e6, unit="s")),
@@ -230,6 +243,9 @@ def run(
     out: Path = typer.Option(..., help="Output folder for metrics.json, states.parquet, run.rrd.", callback=v.out_dir()),
 ) -> None:
     """Run a filter on a scenario; write metrics.json, states.parquet and run.rrd."""
+    from studies.engine.io import output_folder, write_json, write_table
+    from studies.recording.navigation import record_navigation
+
     setup = _setup(scenario=scenario, filter_=filter_, duration=duration, dt=dt, prior=prior, prior_error=prior_error,
                    prior_rate_deg_s=prior_rate_deg_s, prior_json=prior_json, prior_axis=prior_axis, proxy_mode=proxy_mode, tuning=tuning,
                    p0_diag=p0_diag, fault=fault, runs=runs, seed=seed, noise=noise, sigma_q_rad=sigma_q_rad, sigma_r_m=sigma_r_m,
@@ -265,6 +281,8 @@ class RunSetup:
 
 
 def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyRatePrior | None:
+    from estimators.prior import BodyRatePrior
+
     if prior_json is not None and prior_rate_deg_s is not None:
         raise v.InputError("--prior-json and --prior-rate-deg-s: both given: expected the prior as one of them")
     if prior_json is not None:
@@ -278,6 +296,8 @@ def _parse_prior(prior_json, prior_rate_deg_s, prior_axis, prior_error) -> BodyR
 
 
 def _parse_faults(fault: str | None) -> tuple:
+    from perception.simulated_pose import parse_faults
+
     if not fault:
         return ()
     start, length = _floats(fault, 2, "--fault", max_abs=1e6)
@@ -299,6 +319,15 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
            fault, runs, seed, noise, sigma_q_rad, sigma_r_m, gate_confidence, gate_start, reacquire_window, measurements, truth_file,
            truth) -> RunSetup:
     """Validate every option (single options are bounded by their callbacks) before any work or output; simulate the truth."""
+    from estimators.measurement import PoseNoise
+    from estimators.perturbations import get_truth_physics
+    from estimators.prior import BodyRatePrior
+    from estimators.state import K_STATES, W_B
+    from estimators.tuning import get_tuning
+    from studies.sim.navigation import NavigationSetup, one_axis
+    from studies.sim.scenarios import get_scenario
+    from studies.sim.truth import simulate_truth
+
     sc = get_scenario(scenario)
     if dt > duration or duration / dt > MAX_STEPS:
         v.fail("--duration/--dt", f"{duration:g}/{dt:g}", f"--dt <= --duration and at most {MAX_STEPS} filter steps")
@@ -348,6 +377,9 @@ def _monte_carlo(setup: RunSetup) -> list:
     """``(run, measurements, metrics)`` of each run ``i``, drawn from seed ``seed + i`` (a progress bar when stderr is a terminal)."""
     from tqdm import tqdm
 
+    from studies.sim.metrics import evaluate
+    from studies.sim.navigation import navigate
+
     results = []
     tr = setup.truth
     with tqdm(total=setup.runs, desc="lcnav run", unit="run", leave=False, disable=None) as bar:
@@ -370,6 +402,9 @@ TRUTH_KEYS = ("components", "nees_fraction_in_95", "filter_components", "compone
 
 def _truth_metrics(setup: RunSetup, results: list, sel: np.ndarray) -> dict:
     """The truth-based part of metrics.json: §6 metrics of the first run and their means over the runs, NEES in band."""
+    from estimators.state import DK, N_ERROR
+    from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, nees
+
     tr = setup.truth
     states = np.arange(DK.start) if setup.nav.consider else np.arange(N_ERROR)
     E = np.array([nees(r.x, r.P, tr.x, states) for r, _, _ in results])
@@ -386,7 +421,10 @@ def _truth_metrics(setup: RunSetup, results: list, sel: np.ndarray) -> dict:
 
 
 def _run_metrics(setup: RunSetup, results: list) -> dict:
-    """metrics.json: with a truth its :data:`TRUTH_KEYS` (:func:`_truth_metrics`); NIS in band from :data:`SETTLING_S`, gate rates."""
+    """metrics.json: with a truth its :data:`TRUTH_KEYS` (:func:`_truth_metrics`); NIS in band from ``SETTLING_S``, gate rates."""
+    from estimators.navigation import SOURCES
+    from studies.sim.metrics import SETTLING_S, fraction_in_band
+
     tr = setup.truth
     sel = (tr.t - tr.t[0]) >= SETTLING_S
     first = results[0][0]
@@ -403,6 +441,8 @@ def _run_metrics(setup: RunSetup, results: list) -> dict:
 
 def summary_lines(metrics: dict) -> list[str]:
     """What ``lcnav run`` prints of ``metrics.json``: per group t_conv and RMSE (mean over the runs), consistency, gates."""
+    from studies.sim.metrics import SETTLING_S, UNITS
+
     cfg = metrics["config"]
 
     def pct(x, digits=0):

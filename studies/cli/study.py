@@ -7,9 +7,8 @@ from typing import Optional
 
 import typer
 
+from studies.cli.choices import CONNECT_TIMEOUT_S, MAX_CONNECT_TIMEOUT_S, STUDIES
 from studies.engine import validate as v
-from studies.engine.registry import STUDIES, run_study
-from studies.engine.sweep import CONNECT_TIMEOUT_S, MAX_CONNECT_TIMEOUT_S
 
 
 def study(
@@ -24,6 +23,8 @@ def study(
                                                       callback=v.number(0, MAX_CONNECT_TIMEOUT_S, lo_open=True, unit="s")),
 ) -> None:
     """Run a study: sweep its runs (resumable), write runs.parquet, summary.parquet/.csv/.md."""
+    from studies.engine.registry import run_study  # every study, pandas, Dask: not for --help (studies.cli.choices)
+
     result = run_study(name, config_path=config, quick=quick, out=out, scheduler=scheduler, workers=workers,
                        connect_timeout_s=connect_timeout_s)
     typer.echo(result.markdown)

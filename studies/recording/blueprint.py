@@ -44,6 +44,13 @@ SIGMA_RGBA = (140, 140, 140, 150)
 #: The truth: one fixed neutral near-black for every component, wide and translucent under the coloured estimates, so
 #: that truth and estimate are told apart by colour, not by a shade of one hue (the viewer draws no dashed lines).
 TRUTH_RGBA = (25, 25, 25, 140)
+#: The unit of each recorded quantity and of its error, as its plots' titles show them (``"w_ST_T (rad/s)"``): SI
+#: (DESIGN.md), ``1`` for a dimensionless one. ``q_TS``'s error is the rotation vector of q̂ ⊗ q⁻¹ (rad); CoMBiNa's
+#: ``sigma`` error is an error MRP (dimensionless), its ``gamma_over_a`` the angular momentum over the axial inertia (rad/s).
+UNITS = {"q_TS": ("1", "rad"), "w_ST_T": ("rad/s", "rad/s"), "w_T_T": ("rad/s", "rad/s"), "r_ST_T": ("m", "m"), "v_ST_T": ("m/s", "m/s"),
+         "k": ("1", "1"), "range_m": ("m", "m"),
+         "r": ("m", "m"), "v": ("m/s", "m/s"), "sigma": ("1", "1"), "w": ("rad/s", "rad/s"), "phi": ("rad", "rad"), "delta": ("rad", "rad"),
+         "gamma_over_a": ("rad/s", "rad/s")}
 #: The part of a run (its last fraction, by time) whose errors and gate values set a plot's visible range
 #: (:func:`converged_range`): the first seconds' transient would otherwise flatten everything after it.
 CONVERGED_FRACTION = 0.5
@@ -144,16 +151,17 @@ def converged_range(t_s, *series, fraction: float = CONVERGED_FRACTION, margin: 
     return (-top, top) if values.min() < 0 else (0.0, top)
 
 
-def whole_run_plot(*, y_range: tuple[float, float] | None = None, **view) -> rrb.TimeSeriesView:
+def whole_run_plot(*, y_range: tuple[float, float] | None = None, legend: bool = True, **view) -> rrb.TimeSeriesView:
     """A time-series view over the whole ``sim_time`` range (not a window that follows the time cursor).
 
     ``y_range``: the visible range of the values (:func:`converged_range`); ``None`` lets the viewer fit all of them.
+    ``legend``: a legend in the plot's top-left corner (off where the title and the component colours say it all).
     """
     everything = {"start": rrb.TimeRangeBoundary.infinite(), "end": rrb.TimeRangeBoundary.infinite()}
     axis_y = None if y_range is None else rrb.ScalarAxis(range=tuple(float(v) for v in y_range), zoom_lock=False)
     return rrb.TimeSeriesView(**view, time_ranges=rrb.VisibleTimeRange("sim_time", **everything),
                               axis_x=rrb.TimeAxis(view_range=rrb.TimeRange(**everything), zoom_lock=False),
-                              axis_y=axis_y, plot_legend=rrb.PlotLegend(visible=True))
+                              axis_y=axis_y, plot_legend=rrb.PlotLegend(corner=rrb.components.Corner2D.LeftTop, visible=legend))
 
 
 def run_blueprint(
@@ -168,6 +176,7 @@ def run_blueprint(
     cloud: bool = False,
     error_ranges: Mapping[tuple[str, str], tuple[float, float]] | None = None,
     gate_range: tuple[float, float] | None = None,
+    units: Mapping[str, tuple[str, str]] | None = None,
 ) -> rrb.Blueprint:
     """The viewer layout of one run, in tabs, the first (truth vs estimate) active.
 
@@ -180,28 +189,36 @@ def run_blueprint(
     ``error_ranges`` (``{(filter, quantity): (lo, hi)}``) and ``gate_range`` set
     those plots' visible ranges (:func:`converged_range`), so that the converged
     errors, their ±3σ and the gate bounds are readable after the initial transient.
+    Every plot's title ends in its unit: ``units`` (``{quantity: (unit, error unit)}``) over :data:`UNITS`; a quantity
+    in neither is a ValueError. An error plot has no legend: its lines take the component colours of the *states* tab
+    (x red, y green, z blue), its ±3σ envelope is grey, as its title says.
     """
     error_ranges = dict(error_ranges or {})
+    units = {**UNITS, **(units or {})}
+    unknown = [q for q in quantities if q not in units]
+    if unknown:
+        raise ValueError(f"run_blueprint: quantities {unknown}: no unit: expected a quantity of UNITS or units={{quantity: (unit, error unit)}}")
     tabs = []
     if quantities:
         views = [
-            whole_run_plot(name=q, origin="/", contents=[f"/truth/{q}/**"] + [f"/estimate/{f}/{q}/**" for f in filters])
+            whole_run_plot(name=f"{q} ({units[q][0]})", origin="/", contents=[f"/truth/{q}/**"] + [f"/estimate/{f}/{q}/**" for f in filters])
             for q in quantities
         ]
         tabs.append(rrb.Grid(*views, name="states"))
         if errors and filters:
             err_views = [
-                whole_run_plot(name=f"{f}: {q} error ±3σ", origin=f"/estimate/{f}/error/{q}", y_range=error_ranges.get((f, q)))
+                whole_run_plot(name=f"{f}: {q} error, ±3σ grey ({units[q][1]})", origin=f"/estimate/{f}/error/{q}",
+                               y_range=error_ranges.get((f, q)), legend=False)
                 for f in filters
                 for q in quantities
             ]
             tabs.append(rrb.Grid(*err_views, name="errors ±3σ"))
     if gates:
-        tabs.append(rrb.Vertical(whole_run_plot(name="gates: e² and bounds", origin="/gate", y_range=gate_range),
+        tabs.append(rrb.Vertical(whole_run_plot(name="gates: e² and bounds (1)", origin="/gate", y_range=gate_range),
                                  rrb.TextLogView(name="gate events", origin="/gate"), name="gates"))
     lc = []
     if lightcurve:
-        lc.append(whole_run_plot(name="light curve", origin="/lightcurve"))
+        lc.append(whole_run_plot(name="light curve (mag)", origin="/lightcurve"))
     if spectrum:
         lc.append(rrb.BarChartView(name="spectrum", origin="/spectrum"))
     if lc:
@@ -229,8 +246,8 @@ def lightcurve_blueprint(*, spectra: Sequence[str] = ("dirty", "clean", "residua
     spectrum is a bar chart over frequency in mHz (``/spectrum/<name>``).
     """
     curve = rrb.Vertical(
-        whole_run_plot(name="relative flux (up = brighter)", origin="/lightcurve/relative_flux"),
-        whole_run_plot(name="magnitude (up = fainter)", origin="/lightcurve", contents=["/lightcurve/mag", "/lightcurve/mag_true"]),
+        whole_run_plot(name="relative flux (1; up = brighter)", origin="/lightcurve/relative_flux"),
+        whole_run_plot(name="magnitude (mag; up = fainter)", origin="/lightcurve", contents=["/lightcurve/mag", "/lightcurve/mag_true"]),
         rrb.Horizontal(
             whole_run_plot(name="phase angle and elevation (deg)", origin="/lightcurve/geometry",
                            contents=["/lightcurve/geometry/phase_angle_deg", "/lightcurve/geometry/elevation_deg"]),

@@ -42,7 +42,7 @@ def inversion_blueprint(n_curves: int) -> rrb.Blueprint:
     for k in range(n_curves):
         base = f"/lightcurve/{curve_entity(k)}"
         fits.append(rrb.Vertical(
-            whole_run_plot(name=f"{curve_entity(k)}: observed and fitted (brightness / median)", origin=base,
+            whole_run_plot(name=f"{curve_entity(k)}: observed and fitted (1; brightness / median)", origin=base,
                            contents=[f"{base}/observed", f"{base}/fitted"]),
             whole_run_plot(name=f"{curve_entity(k)}: residual (σ)", origin=base, contents=[f"{base}/residual"]),
             row_shares=[3, 1]))  # fmt: skip

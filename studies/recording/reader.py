@@ -152,3 +152,25 @@ def export_series(path, contents: list[str] | None = None) -> tuple[pd.DataFrame
     if values.shape[1]:
         frame = frame[values.notna().any(axis=1).to_numpy()].reset_index(drop=True)
     return frame, skipped
+
+
+@dataclass(frozen=True)
+class StoredView:
+    """One view of the blueprint a recording carries: its kind (``TimeSeries``, ``BarChart``, ...), title and origin."""
+
+    kind: str
+    name: str
+    origin: str
+
+
+def blueprint_views(path) -> list[StoredView]:
+    """The views of the blueprint stored in the ``.rrd`` at ``path``, in the order stored (none without a blueprint)."""
+    reader, _, _ = _open_store(Path(path))
+    views = []
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store):
+            cols = chunk.to_record_batch().to_pydict()
+            kinds = cols.get("ViewBlueprint:class_identifier", [])
+            names, origins = (cols.get(f"ViewBlueprint:{k}", [None] * len(kinds)) for k in ("display_name", "space_origin"))
+            views += [StoredView(k[0], n[0] if n else "", o[0] if o else "") for k, n, o in zip(kinds, names, origins) if k]
+    return views

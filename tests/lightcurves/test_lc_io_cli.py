@@ -89,7 +89,7 @@ BAD = {
     "zero variance": lambda p: _csv(p, [(t, 8.0) for t in range(30)]),
     "malformed CSV": lambda p: p.write_text("time,mag\n1,2\n3,4,5,6\n7\n"),
     "decimal number": lambda p: p.write_text("time,mag\n" + "".join(f"{k},bright\n" for k in range(30))),
-    "must contain 'time' and 'mag'": lambda p: p.write_text("t,brightness\n1,2\n"),
+    "'time', 'mag': missing": lambda p: p.write_text("t,brightness\n1,2\n"),
 }
 
 

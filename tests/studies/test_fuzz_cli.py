@@ -52,7 +52,7 @@ def sentinel(name):
 
 SENTINELS = {
     "studies.cli.simulate.simulate_truth": "truth",
-    "studies.cli.run.simulate_truth": "run-truth",
+    "studies.sim.truth.simulate_truth": "run-truth",  # lcnav run imports it when it runs (studies.cli.simulate has its own name)
     "studies.cli.combina.run_combina": "combina",
     "lightcurves.render.UnresolvedRenderer": "renderer",
     "studies.cli.perception.frame_pipeline": "frames",

@@ -134,14 +134,14 @@ def test_combina_rate_1e6_is_refused_at_once(tmp_path, capsys):
 
 
 def test_empty_magnitude_cell_and_hex_are_refused(tmp_path, capsys):
-    one_error(capsys, ["lightcurve", "prior", light_curve_csv(tmp_path / "a.csv", "30,\n")], "column 'mag' row 31 is empty")
-    one_error(capsys, ["lightcurve", "prior", light_curve_csv(tmp_path / "b.csv", "30,0x10\n")], "row 31 holds '0x10'; expected a decimal number")
+    one_error(capsys, ["lightcurve", "prior", light_curve_csv(tmp_path / "a.csv", "30,\n")], "column 'mag' row 31: empty: expected")
+    one_error(capsys, ["lightcurve", "prior", light_curve_csv(tmp_path / "b.csv", "30,0x10\n")], "row 31: '0x10': expected a decimal number")
 
 
 def test_values_are_quoted_plainly(tmp_path, capsys):
     path = tmp_path / "lc.csv"
     path.write_text("time,mag\n" + "".join(f"{k},10\n" for k in range(29)) + "29,ten\n")
-    err = one_error(capsys, ["lightcurve", "prior", path], "holds 'ten'")
+    err = one_error(capsys, ["lightcurve", "prior", path], "row 30: 'ten': expected")
     assert "np.str_" not in err
 
 
