@@ -1,4 +1,4 @@
-"""The names and defaults that ``lcnav run``'s and ``lcnav study``'s options list in their help, as literals.
+"""The names and defaults that ``lcnav run``'s, ``study``'s and ``combina``'s options list in their help, as literals.
 
 Importing the libraries that define them (:mod:`estimators.navigation`, :mod:`estimators.tuning`,
 :mod:`studies.engine.registry`, ...) pulls in numba, SciPy, pandas and every study: ``lcnav run --help`` and a
@@ -33,3 +33,7 @@ STUDIES = ("truth", "tuning", "init", "proxy", "chain", "combina", "coverage", "
 #: :data:`studies.engine.sweep.MAX_CONNECT_TIMEOUT_S`).
 CONNECT_TIMEOUT_S = 20.0
 MAX_CONNECT_TIMEOUT_S = 600.0
+#: CoMBiNa's targets and the meshes that stand for them (:data:`studies.sim.combina.MESH_TARGETS`), and its pose sources
+#: (:data:`studies.sim.combina.SOURCES`).
+COMBINA_MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
+COMBINA_SOURCES = ("simulated", "rendered")

@@ -15,18 +15,22 @@ from pathlib import Path
 
 import typer
 
-from estimators.perturbations import TRUTH_PHYSICS
+from studies.cli.choices import COMBINA_MESH_TARGETS as MESH_TARGETS
+from studies.cli.choices import COMBINA_SOURCES as SOURCES
+from studies.cli.choices import TRUTH_PHYSICS
 from studies.engine import validate as v
-from studies.engine.io import output_folder, write_json, write_table
-from studies.recording.combina import states_table, write_recording
-from studies.sim.combina import MESH_TARGETS, SOURCES, CombinaConfig, run_combina, combina_metrics
 
 #: Most measurement epochs of one run (duration × rate): a bound on the work one command may ask for.
 MAX_EPOCHS = 10**5
 
 
-def run_command(cfg: CombinaConfig, out: Path) -> dict:
-    """Validate, run and write the three files under the ``out`` lock; nothing is written on bad input or failure."""
+def run_command(cfg, out: Path) -> dict:
+    """Validate the :class:`~studies.sim.combina.CombinaConfig`, run it and write the three files under the ``out`` lock;
+    nothing is written on bad input or failure."""
+    from studies.engine.io import output_folder, write_json, write_table
+    from studies.recording.combina import states_table, write_recording
+    from studies.sim.combina import combina_metrics, run_combina
+
     cfg.validate()
     v.check_out_dir("--out", out)
     if cfg.effective_duration_s * cfg.rate_hz > MAX_EPOCHS:
@@ -81,6 +85,8 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., help="output directory", callback=v.out_dir()),
     ) -> None:
         """CoMBiNa relative navigation (Maestrini et al. §VI): writes metrics.json, states.parquet, combina.rrd."""
+        from studies.sim.combina import CombinaConfig
+
         cfg = CombinaConfig(target=target, measurements=pose_source, duration_tu=duration_tu, rate_hz=rate_hz, seed=seed, prior=prior,
                             prior_error=prior_error, axis_frame=axis_frame, quick=quick, truth=truth)
         m = run_command(cfg, out)
