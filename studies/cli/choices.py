@@ -1,4 +1,4 @@
-"""The names and defaults that ``lcnav run``'s, ``study``'s and ``combina``'s options list in their help, as literals.
+"""The names and defaults that ``lcnav run``'s, ``study``'s, ``combina``'s and ``demo``'s options list in their help, as literals.
 
 Importing the libraries that define them (:mod:`estimators.navigation`, :mod:`estimators.tuning`,
 :mod:`studies.engine.registry`, ...) pulls in numba, SciPy, pandas and every study: ``lcnav run --help`` and a
@@ -37,3 +37,5 @@ MAX_CONNECT_TIMEOUT_S = 600.0
 #: (:data:`studies.sim.combina.SOURCES`).
 COMBINA_MESH_TARGETS = {"asymmetric": "box-wing", "symmetric": "atlas-centaur"}
 COMBINA_SOURCES = ("simulated", "rendered")
+#: Where ``lcnav demo`` writes by default (:data:`studies.catalog.demo.DEFAULT_OUT`).
+DEMO_OUT = "runs/demo"

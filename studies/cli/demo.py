@@ -6,15 +6,17 @@ from pathlib import Path
 
 import typer
 
-from studies.catalog.demo import DEFAULT_OUT, QUICK, DemoConfig, run_demo
+from studies.cli.choices import DEMO_OUT
 from studies.engine.validate import out_dir
 
 
 def demo(
-    out: Path = typer.Option(DEFAULT_OUT, "--out", help="Output folder (tables, figures, recordings).", callback=out_dir()),
+    out: Path = typer.Option(DEMO_OUT, "--out", help="Output folder (tables, figures, recordings).", callback=out_dir()),
     quick: bool = typer.Option(False, "--quick", help="Smaller run (shorter light curve and filter runs, 16 px renders) for tests."),
 ) -> None:
     """The main job: light curve -> spin prior -> EKF/UKF on SC3 with and without it; tables, figures, recordings."""
+    from studies.catalog.demo import QUICK, DemoConfig, run_demo
+
     result = run_demo(out, QUICK if quick else DemoConfig(), echo=typer.echo)
     typer.echo("")
     typer.echo(result.markdown)

@@ -332,7 +332,7 @@ HEAVY = ("pandas", "rerun", "numba", "mitsuba", "scipy", "astropy", "distributed
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["--version"], ["--hlep"], ["rnu"], ["run", "--help"], ["run", "--durration", "5"],
-                                  ["study", "--help"], ["combina", "--help"], ["combina", "--taget", "box-wing"]])
+                                  ["study", "--help"], ["combina", "--help"], ["combina", "--taget", "box-wing"], ["demo", "--help"]])
 def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
     code = ("import sys; from studies.cli import main; code = main(sys.argv[1:]); "
             f"print(sorted(m for m in {HEAVY!r} if m in sys.modules)); sys.exit(code)")
@@ -346,6 +346,8 @@ def test_help_version_and_misspelt_input_import_nothing_heavy(lcnav_env, argv):
         assert res.returncode == 0 and all(f"{name} " in res.stdout for name in COMMANDS)
     elif argv == ["run", "--help"]:  # its help lists the libraries' names (from studies.cli.choices)
         assert res.returncode == 0 and "ekf|ukf" in res.stdout and "relinearized" in res.stdout, res.stdout
+    elif argv == ["demo", "--help"]:
+        assert res.returncode == 0 and "runs/demo" in res.stdout, res.stdout
     elif argv == ["combina", "--help"]:
         assert res.returncode == 0 and "box-wing" in res.stdout and "perturbed" in res.stdout, res.stdout
     elif argv == ["study", "--help"]:
@@ -376,6 +378,9 @@ def test_run_and_study_help_choices_are_the_libraries_values():
     from studies.sim.combina import MESH_TARGETS, SOURCES
 
     assert choices.COMBINA_MESH_TARGETS == MESH_TARGETS and choices.COMBINA_SOURCES == tuple(SOURCES)
+    from studies.catalog.demo import DEFAULT_OUT
+
+    assert Path(choices.DEMO_OUT) == DEFAULT_OUT
 
 
 def test_help_listing_is_each_command_docstring_and_flags_take_no_value(tmp_path, capsys):
