@@ -290,23 +290,23 @@ def _same_optimum(a: _Problem, b: _Problem) -> bool:
             and a.C_TA0[:, 2] @ b.C_TA0[:, 2] > np.cos(np.radians(1.0)))
 
 
-def _known_starts(grid: _Data, sub: _Data, model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
+def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
     """Fits (χ², problem) on the subsample ``sub`` at one screened pole of a known shape, over its period aliases.
 
     Nights days apart leave cycle-count aliases of the rate (ω and ω + 2π n/Δt give the same phase at every night's
     mid-time) that the screen, with one rate node per night, cannot rank: they differ only by the phase drift within
     each night, which the pole and phase absorb in part. So: fit from the screen's best (rate, phase, axis) of this
-    pole on the screen's samples ``grid``; from that fit's pole, epoch phase and axis, fit again briefly (``8 n``
-    evaluations) at each of the ``n_aliases`` best local minima of the screen's χ²(ω) ``row``; fit the ``n_periods``
-    best of those on ``sub``. (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs 5.9e4.)
+    pole with the screen's model on its samples ``grid``; from that fit's pole, epoch phase and axis, fit again briefly
+    (``8 n`` evaluations) at each of the ``n_aliases`` best local minima of the screen's χ²(ω) ``row``; fit the
+    ``n_periods`` best of those with the full ``model`` on ``sub``. (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs 5.9e4.)
     """
     iw = int(np.argmin(row))
     start = pole_frame(pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase_rad[iw]]).as_matrix()
-    first, chi2 = _fit(_Problem(grid, model, start, omegas[iw], axis_frame(axes_T[iw]), True, True), 360)
+    first, chi2 = _fit(_Problem(grid, screen_model, start, omegas[iw], axis_frame(axes_T[iw]), True, True), 360)
     trials = [(chi2, first)]
     for jw in _period_minima(row, n_aliases):
         if abs(omegas[jw] - first.omega0) * first.tau > 0.5:  # a different alias, not the fitted one
-            fit, chi2 = _fit(_Problem(grid, model, first.C_IP0, omegas[jw], first.C_TA0, True, True), 48)
+            fit, chi2 = _fit(_Problem(grid, screen_model, first.C_IP0, omegas[jw], first.C_TA0, True, True), 48)
             trials.append((chi2, fit))
     out = []
     for _, trial in sorted(trials, key=lambda t: t[0])[:n_periods]:
@@ -407,7 +407,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     done = omegas.size
     for ip in _local_minima(poles, chi2_map)[:n_candidates]:
         if known:
-            coarse.extend(_known_starts(grid, sub, model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
+            coarse.extend(_known_starts(grid, sub, model, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
                                         n_periods_per_pole, n_aliases))
         else:
             for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
