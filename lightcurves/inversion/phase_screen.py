@@ -89,33 +89,46 @@ def _combine(S_yB, S_BB, S_yy, relative, node_of, shift, chi2, best):  # pragma:
     for k in range(K):
         if not relative[k]:
             cal_yy += S_yy[k]
-    for p in range(n_p):
-        for w in range(n_w):
+    base = np.empty(K, np.int64)
+    coef = np.empty((K, 4))
+    for w in range(n_w):
+        for k in range(K):  # the fractional part of the shift is the same at every grid phase j
+            i = int(shift[k, w])
+            f = shift[k, w] - i
+            base[k] = i
+            # Catmull-Rom cubic through the four nearest grid phases (linear interpolation doubled the screen's χ² at the truth)
+            coef[k, 0], coef[k, 1] = 0.5 * f * (f * (2.0 - f) - 1.0), 0.5 * (f * f * (3.0 * f - 5.0) + 2.0)
+            coef[k, 2], coef[k, 3] = 0.5 * f * (f * (4.0 - 3.0 * f) + 1.0), 0.5 * f * f * (f - 1.0)
+        for p in range(n_p):
             lowest, arg = np.inf, -1
             for a in range(n_a):
                 for j in range(M):
-                    yb_c, bb_c, c2 = 0.0, 0.0, cal_yy
-                    for k in range(K):
-                        x = shift[k, w] + j
-                        i = int(x)
-                        f = x - i
-                        # Catmull-Rom cubic through the four nearest grid phases (linear interpolation doubled the screen's χ² at the truth)
-                        c0, c1, c2_, c3 = 0.5 * f * (f * (2.0 - f) - 1.0), 0.5 * (f * f * (3.0 * f - 5.0) + 2.0), 0.5 * f * (f * (4.0 - 3.0 * f) + 1.0), 0.5 * f * f * (f - 1.0)
-                        n = node_of[k, w]
-                        im, i0, i1, i2 = (i - 1) % M, i % M, (i + 1) % M, (i + 2) % M
-                        yb = c0 * S_yB[k, a, p, n, im] + c1 * S_yB[k, a, p, n, i0] + c2_ * S_yB[k, a, p, n, i1] + c3 * S_yB[k, a, p, n, i2]
-                        bb = c0 * S_BB[k, a, p, n, im] + c1 * S_BB[k, a, p, n, i0] + c2_ * S_BB[k, a, p, n, i1] + c3 * S_BB[k, a, p, n, i2]
-                        if relative[k]:
-                            c2 += S_yy[k] - (yb * yb / bb if yb > 0.0 and bb > 0.0 else 0.0)
-                        else:
-                            yb_c += yb
-                            bb_c += bb
-                    if yb_c > 0.0 and bb_c > 0.0:
-                        c2 -= yb_c * yb_c / bb_c
+                    c2 = _chi2_at(S_yB, S_BB, S_yy, relative, cal_yy, node_of[:, w], base, coef, a, p, j)
                     if c2 < lowest:
                         lowest, arg = c2, a * M + j
             chi2[p, w] = lowest
             best[p, w] = arg
+
+
+@numba.njit(cache=True, inline="always")
+def _chi2_at(S_yB, S_BB, S_yy, relative, cal_yy, node, base, coef, a, p, j):  # pragma: no cover - compiled
+    """χ² (module docstring) at axis a, pole p and grid phase j, each curve's statistics read by the cubic ``coef`` from ``base + j``."""
+    M = S_yB.shape[4]
+    yb_c, bb_c, c2 = 0.0, 0.0, cal_yy
+    for k in range(S_yB.shape[0]):
+        yb, bb = 0.0, 0.0
+        for q in range(4):
+            i = (base[k] + j + q - 1) % M
+            yb += coef[k, q] * S_yB[k, a, p, node[k], i]
+            bb += coef[k, q] * S_BB[k, a, p, node[k], i]
+        if relative[k]:
+            c2 += S_yy[k] - (yb * yb / bb if yb > 0.0 and bb > 0.0 else 0.0)
+        else:
+            yb_c += yb
+            bb_c += bb
+    if yb_c > 0.0 and bb_c > 0.0:
+        c2 -= yb_c * yb_c / bb_c
+    return c2
 
 
 def screen_phases(data, model, poles_I: np.ndarray, axes_T: np.ndarray, omegas: np.ndarray, *, n_phases: int = 48,

@@ -16,11 +16,17 @@ the shape's).
 1. Screening grid: poles on a Fibonacci lattice of the whole sphere (``pole_step_deg``), sidereal rates
    on a uniform grid over ``period_range_s`` with step ``Δω = π/(2 T)`` (T the data's time span: the
    phase drifts by at most a quarter turn across the span between neighbours, i.e. ΔP ≈ P²/(4T)),
-   on at most ``n_grid_samples`` samples per curve, with a coarse convex model (``screen_facets``
-   normals, unconstrained ridge least squares, batched over all poles) whatever the model: a convex
-   model absorbs the rotational phase and the body axis, so the grid has only pole and period.
-2. For a known shape (``basis`` has one column) the phase φ₀ and the body spin axis are found at each
-   candidate on a grid (``n_phases`` phases × ``axes_T``, default the principal axes ±x, ±y, ±z).
+   on at most ``n_grid_samples`` samples per curve.
+   * Unknown shape: a coarse convex model (``screen_facets`` normals, unconstrained ridge least squares, batched
+     over all poles): a convex model absorbs the rotational phase and the body axis, so the grid has only pole and period.
+   * Known shape (``basis`` has one column): the shape itself (its ``coarse(screen_known_facets)`` copy) over
+     pole × body axis (``axes_T``) × rate × phase (``n_phases``), from per-curve phase tables (:mod:`.phase_screen`),
+     the rate step refined so that the phase at the span's ends moves by at most one phase step. A convex stand-in
+     ranks poles by another likelihood: on the SC3 seed-1 campaign it led the refinement 119° off (χ² 1.98e5, the
+     truth's 5.85e4).
+2. For a known shape, at each candidate pole: a fit from the screen's (rate, phase, axis), then brief fits at
+   the ``n_aliases`` best rate minima of that pole (cycle-count aliases between nights, which the screen cannot rank),
+   and the ``n_periods_per_pole`` best of those go on.
 3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
    reflective) with the full model, first on ``n_refine_samples`` per curve, then — once per distinct
    optimum — on all data, in the rotation-vector increment of the pole frame,
@@ -290,7 +296,8 @@ def _same_optimum(a: _Problem, b: _Problem) -> bool:
             and a.C_TA0[:, 2] @ b.C_TA0[:, 2] > np.cos(np.radians(1.0)))
 
 
-def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
+def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int,
+                  n_aliases: int) -> list[tuple[float, _Problem]]:
     """Fits (χ², problem) on the subsample ``sub`` at one screened pole of a known shape, over its period aliases.
 
     Nights days apart leave cycle-count aliases of the rate (ω and ω + 2π n/Δt give the same phase at every night's
@@ -373,8 +380,11 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each (nights days
         apart leave cycle-count aliases ≈ P²/T apart: each is refined and reported with its probability).
     axes_T : (n, 3) candidate body spin axes for a known shape (default the principal axes ±x, ±y, ±z).
-    n_phases : phases tried per axis for a known shape.
+    n_phases : phases of a known shape's screen (:mod:`.phase_screen`; the rate step follows, ``period_oversampling``
+        at least n_phases/8).
     n_refine_samples : samples per curve of the first refinement; the optimum is then polished on all samples.
+    screen_known_facets : facets of the known shape's screening copy (``model.coarse``, when it has one).
+    n_aliases : rate minima of each candidate pole's screen row fitted briefly (step 2 of the module docstring).
     """
     lo, hi = _validate(curves, period_range_s)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
