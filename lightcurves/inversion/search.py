@@ -304,16 +304,26 @@ def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, 
     mid-time) that the screen, with one rate node per night, cannot rank: they differ only by the phase drift within
     each night, which the pole and phase absorb in part. So: fit from the screen's best (rate, phase, axis) of this
     pole with the screen's model on its samples ``grid``; from that fit's pole, epoch phase and axis, fit again briefly
-    (``8 n`` evaluations) at each of the ``n_aliases`` best local minima of the screen's χ²(ω) ``row``; fit the
-    ``n_periods`` best of those with the full ``model`` on ``sub``. (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs 5.9e4.)
+    (``8 n`` evaluations) at the ``n_aliases`` best local minima of the screen's χ²(ω) ``row`` — every stride-th of
+    them (8 in all), then the neighbours of the best — and fit the ``n_periods`` best with the full ``model`` on ``sub``.
+    (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs 5.9e4.)
     """
     iw = int(np.argmin(row))
     start = pole_frame(pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase_rad[iw]]).as_matrix()
     first, chi2 = _fit(_Problem(grid, screen_model, start, omegas[iw], axis_frame(axes_T[iw]), True, True), 360)
     trials = [(chi2, first)]
-    for jw in _period_minima(row, n_aliases):
-        if abs(omegas[jw] - first.omega0) * first.tau > 0.5:  # a different alias, not the fitted one
-            fit, chi2 = _fit(_Problem(grid, screen_model, first.C_IP0, omegas[jw], first.C_TA0, True, True), 48)
+    aliases = np.sort(omegas[[jw for jw in _period_minima(row, n_aliases) if abs(omegas[jw] - first.omega0) * first.tau > 0.5]])
+    # χ² over the aliases is smooth (the drift within nights grows with the rate error): every stride-th first, then
+    # the neighbours of the best of those
+    stride = max(1, int(np.ceil(aliases.size / 8)))
+    tried = np.zeros(aliases.size, bool)
+    for pick in (np.arange(stride // 2, aliases.size, stride), None):
+        if pick is None:
+            j = int(np.argmin(np.abs(aliases - min(trials, key=lambda t: t[0])[1].omega0))) if aliases.size else 0
+            pick = np.arange(max(j - stride + 1, 0), min(j + stride, aliases.size))
+        for jw in pick[~tried[pick]]:
+            tried[jw] = True
+            fit, chi2 = _fit(_Problem(grid, screen_model, first.C_IP0, aliases[jw], first.C_TA0, True, True), 48)
             trials.append((chi2, fit))
     out = []
     for _, trial in sorted(trials, key=lambda t: t[0])[:n_periods]:
@@ -384,7 +394,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         at least n_phases/8).
     n_refine_samples : samples per curve of the first refinement; the optimum is then polished on all samples.
     screen_known_facets : facets of the known shape's screening copy (``model.coarse``, when it has one).
-    n_aliases : rate minima of each candidate pole's screen row fitted briefly (step 2 of the module docstring).
+    n_aliases : at most this many rate minima of each candidate pole's screen row fitted briefly (step 2 of the module docstring;
+        fewer when the range holds fewer cycle-count aliases between the curves' mid-times).
     """
     lo, hi = _validate(curves, period_range_s)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
@@ -415,6 +426,9 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     sub = _subsample(data, n_refine_samples)
     coarse = []  # (χ², fit) on the subsample, from every candidate start
     done = omegas.size
+    # distinct cycle-count aliases in the range: rates 2π/(spread of the curves' mid-times) apart
+    mids = [0.5 * (data.t_s[data.curve == k].min() + data.t_s[data.curve == k].max()) for k in range(data.relative.size)]
+    n_aliases = min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * np.ptp(mids) / (2 * np.pi))) + 1)
     for ip in _local_minima(poles, chi2_map)[:n_candidates]:
         if known:
             coarse.extend(_known_starts(grid, sub, model, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
