@@ -9,6 +9,7 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 * :mod:`~lightcurves.inversion.spin` — :class:`SpinState`, the attitude of a principal-axis rotation.
 * :mod:`~lightcurves.inversion.convex` — :class:`ConvexModel` (free facet areas), :class:`EllipsoidModel`.
 * :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement.
+* :mod:`~lightcurves.inversion.phase_screen` — the known-shape screen over pole × body axis × rate × phase.
 * :mod:`~lightcurves.inversion.posterior` — :class:`SpinSolution`, :class:`InversionResult`.
 * :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target as facets: its intensity (W/sr) as Mitsuba renders it.
 * :mod:`~lightcurves.inversion.frames`, :mod:`~lightcurves.inversion.io` — pole conversions; DAMIT, ECSV and CSV readers.

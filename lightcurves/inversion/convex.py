@@ -19,7 +19,7 @@ to the ellipsoid's (``basis`` is (N, 1), the one free weight a reflectance), a k
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.special import elliprg
@@ -149,6 +149,12 @@ class EllipsoidModel:
     @property
     def n_params(self) -> int:
         return 1
+
+    def coarse(self, max_facets: int) -> EllipsoidModel:
+        """The same ellipsoid on at most ``max_facets`` Fibonacci normals: a cheaper model for the search's screen."""
+        if int(max_facets) < 1:
+            raise ValueError(f"max_facets: {max_facets}: expected an integer >= 1")
+        return self if int(max_facets) >= self.n_facets else replace(self, n_facets=int(max_facets))
 
     def basis(self, sun_T, obs_T) -> np.ndarray:
         """(N, 1) intensity (W/sr) of the ellipsoid with unit reflectance, directions (N, 3) in T."""

@@ -151,8 +151,6 @@ def test_fitted_curves_reproduce_the_solution_chi2():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 28, open: the search's grid misses the mirror basin on this geometry (found pole 0.19 deg "
-                   "off with p = 1, the mirror's nearest mode 80 deg away) since the search defaults of 8a7d58f")
 def test_coplanar_geometry_lists_both_mirror_poles(tmp_path, capsys):
     """Sun and observer in one plane (the equator): poles (λ, β) and (λ + 180°, β) give the same curves.
 
