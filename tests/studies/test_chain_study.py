@@ -1,4 +1,4 @@
-"""``lcnav study chain --quick``: rendered light curve -> WindowCLEAN prior -> filters, with and without it."""
+"""``lcnav study chain --quick``: rendered light curves -> inversion prior -> filters, with and without it."""
 
 import json
 from pathlib import Path
@@ -34,6 +34,21 @@ def test_tables_figures_recordings_exist(chain_out):
     summary = pd.read_parquet(chain_out / "summary.parquet")
     assert set(summary["prior"]) == {"no prior", "prior: tuning", "prior: tuning + init"}
     assert set(summary["group"]) == {"q", "w", "r", "v", "k"} and (summary["runs"] == 2).all()
+
+
+def test_paired_table_is_the_seedwise_difference_and_the_prior_table_scores_every_prior(chain_out):
+    """``paired.parquet``: Δ RMSE and Δ t_conv are the means of the per-seed differences of runs.parquet's columns over the seeds
+    where both arms converged; ``prior.parquet``: one row per experiment, every prior scored."""
+    runs = pd.read_parquet(chain_out / "runs.parquet")
+    paired = pd.read_parquet(chain_out / "paired.parquet")
+    for arm, label in (("tuning", "prior: tuning"), ("init", "prior: tuning + init")):
+        for g in ("w", "r"):
+            d = (runs[f"ekf_{arm}_{g}_rmse"].astype(float) - runs[f"ekf_none_{g}_rmse"].astype(float)).dropna()
+            row = paired[(paired["filter"] == "ekf") & (paired["prior"] == label) & (paired["group"] == g)].iloc[0]
+            assert row["pairs"] == len(d) and row["Δ RMSE mean"] == pytest.approx(d.mean(), rel=1e-12, abs=1e-15)
+    prior = pd.read_parquet(chain_out / "prior.parquet")
+    assert list(prior["experiment"]) == ["init"] and prior["priors"].iloc[0] == len(runs)
+    assert prior["pole error median (°)"].iloc[0] == pytest.approx(runs["prior_pole_err_deg"].astype(float).median())
 
 
 def test_every_recording_verifies(chain_out):
@@ -109,7 +124,9 @@ def test_a_filter_breakdown_is_counted_not_fatal(tmp_path):
 
     config = get_study("chain").load(quick=True)
     base = {"experiment": "init", "scenario": "SC3", "lc_truth_rate_deg_s": 2.82, "prior_significant": True, "lc_rate_deg_s": 2.83,
-            "lc_rate_sigma_deg_s": 1e-3, "lc_rate_error_pct": 0.2, "tuning_chosen": "sc3-conservative", "tuning_correct": True}
+            "lc_rate_sigma_deg_s": 1e-3, "lc_rate_error_pct": 0.2, "tuning_chosen": "sc3-conservative", "tuning_correct": True,
+            "prior_available": True, "prior_sense_right": True, "prior_w_mahalanobis2": 2.0, "prior_pole_err_deg": 0.5, "prior_n_modes": 1,
+            "prior_period_err_pct": 1e-4}
     good = {f"ekf_{a}_{g}_{m}": 1.0 for a in ARMS for g in "qwrvk" for m in ("conv_s", "rmse", "filter_conv_s", "filter_rmse")}
     good |= {f"ekf_{a}_failed": "" for a in ARMS}
     bad = dict(good) | {k: None for k in good if k.startswith("ekf_none_") and not k.endswith("failed")}
