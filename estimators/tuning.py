@@ -162,11 +162,14 @@ class Tuning:
     relinearize_s: float = 0.0
     #: unmodelled accelerations whose ``Q_d`` (:mod:`estimators.process_noise`, with cross terms) is added to ``q_rate``'s; None: none
     budget: DisturbanceBudget | None = None
+    #: length (s) of the re-linearisation's moving window (fixed lag); 0: every fit takes all the measurements since ``t[0]``.
+    #: A multiple of ``relinearize_s`` (:class:`estimators.navigation._Relinearization`)
+    lag_s: float = 0.0
 
     def __post_init__(self):
         if self.settling_q_rate is None:
             object.__setattr__(self, "settling_q_rate", np.zeros(N_ERROR))
-        for field in ("settling_s", "release_s", "relinearize_s"):
+        for field in ("settling_s", "release_s", "relinearize_s", "lag_s"):
             if not (np.isfinite(getattr(self, field)) and getattr(self, field) >= 0):
                 raise ValueError(f"tuning {self.name!r}: {field} must be a finite number of seconds >= 0")
         for field in ("q_rate", "p0_diag", "settling_q_rate"):
@@ -176,6 +179,8 @@ class Tuning:
             object.__setattr__(self, field, a)
         if np.any(self.p0_diag <= 0):
             raise ValueError(f"tuning {self.name!r}: P_0 must be positive definite")
+        if self.lag_s > 0 and not (self.relinearize_s > 0 and abs(self.lag_s / self.relinearize_s - round(self.lag_s / self.relinearize_s)) < 1e-9):
+            raise ValueError(f"tuning {self.name!r}: lag_s: {self.lag_s!r}: expected a positive multiple of relinearize_s ({self.relinearize_s!r} s)")
 
     def Q_d(self, tau_s: float, *, settling: bool = False) -> np.ndarray:
         """Discrete process-noise covariance for a step of ``tau_s`` seconds (14×14), in or after the settling phase."""
@@ -223,6 +228,12 @@ PERTURBED_BUDGET = DisturbanceBudget(sigma_alpha_rad_s2=7.0e-7, sigma_a_m_s2=2.3
 TUNINGS["budgeted"] = Tuning("budgeted", _q(0.0, 0.0, 0.0, 0.0, 0.0), P0_DEFAULT, budget=PERTURBED_BUDGET,
                              description="Q_d from the perturbed truth's disturbance budget (estimators.process_noise) after the settling phase; "
                              "real-time, no batch fits", **SETTLING)
+#: The fixed-lag window's length (s): see the module docstring, ``fixed-lag``.
+LAG_S = 60.0
+TUNINGS["fixed-lag"] = dataclasses.replace(
+    TUNINGS["relinearized"], name="fixed-lag", budget=PERTURBED_BUDGET, lag_s=LAG_S,
+    description=f"re-linearised every 10 s about the fit of a {LAG_S:g}-s window from the filter's own estimate, with the perturbed truth's "
+    "disturbance budget inside the window and between fits (bounded cost)")
 
 #: The scenario tunings with the settling phase: what a spin prior selects in ``lcnav run``, the demo and the chain study.
 TUNINGS.update({
