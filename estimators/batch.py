@@ -342,8 +342,7 @@ class _Problem:
         else:
             X, _, F = model.trajectory(self.x0_prior, self.servicer, self.dt)
             Sigma = _process_noise_at(F, self.Q)
-            self.every = [(src, ks, Z, np.linalg.cholesky(np.linalg.inv(src.R + _sandwich(src.jacobians(X[ks]), Sigma[ks]))))
-                          for src, ks, Z, _ in rows]
+            self.every = [(src, ks, Z, _inflated_root(src.R, _sandwich(src.jacobians(X[ks]), Sigma[ks]))) for src, ks, Z, _ in rows]
         self.keep = [acc for *_, acc in rows] if keep is None else keep
         self.groups = [(src, ks[m], Z[m], L if L.ndim == 2 else L[m]) for (src, ks, Z, L), m in zip(self.every, self.keep) if m.any()]
         self.dof = int(sum(len(ks) * src.R.shape[0] for src, ks, _, _ in self.groups))
@@ -408,6 +407,18 @@ def _whiten(Y: np.ndarray, L: np.ndarray) -> np.ndarray:
 def _sandwich(H: np.ndarray, S: np.ndarray) -> np.ndarray:
     """``H_j S_j H_jᵀ`` for stacks ``H (n, d, m)``, ``S (n, m, m)``: (n, d, d)."""
     return np.einsum("nij,njk,nlk->nil", H, S, H)
+
+
+def _inflated_root(R: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``L (n, d, d)`` with ``L_j L_jᵀ = (R + S_j)⁻¹``: ``L_j = C_j⁻ᵀ``, ``C_j`` the Cholesky factor of ``R + S_j``.
+
+    Factored directly rather than through ``(R + S_j)⁻¹`` (whose Cholesky factor failed on SC1, where ``Φ`` grows like
+    ``e^{λt}`` and ``S_j`` spans decades); ``R + S_j ≥ R`` is positive definite once ``S_j`` is symmetrised.
+    """
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    if not np.all(np.isfinite(S)):
+        raise BatchFitError("the process noise accumulated along the prior's trajectory is not finite")
+    return np.swapaxes(np.linalg.inv(np.linalg.cholesky(R + S)), -1, -2)
 
 
 def _process_noise_at(F: np.ndarray, Q: np.ndarray) -> np.ndarray:
