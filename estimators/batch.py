@@ -127,6 +127,29 @@ with the prior) at a relative rate of 3.3°/s (2.9°/s at 20 s; the truth's
 2.82°/s, the prior's 5.0°/s), and the 300-s run ends with the rate's RMSE
 0.0016 rad/s from 10 s on, every fit from 10 s passing this way.
 
+*Process noise* (a moving window, issue 31: :class:`estimators.navigation._Relinearization` with ``lag_s``;
+``posterior``'s ``Q``). A truth with unmodelled physics (gravity gradient, J2, drag, nutation damping) is not
+fixed by its initial state: ``x_{k+1} = f(x_k) ⊞ w_k``, ``w_k ~ N(0, Q)`` per step (``Q``: the disturbance
+budget's ``Q_d``, :mod:`estimators.process_noise`). The fit keeps the window's trajectory deterministic and
+lets ``Q`` enter twice:
+
+1. Each measurement's noise is inflated by the process noise accumulated from the window's start to its step,
+   mapped through ``H``: ``R_j' = R_j + H_j Σ_{k_j} H_jᵀ``, ``Σ_{k+1} = F_k Σ_k F_kᵀ + Q``, ``Σ_0 = 0`` (the
+   ``F_k`` along the prior's trajectory, fixed during the fit). Exact for each residual's *marginal* variance
+   (to first order); it ignores the correlation of the accumulated noise between residuals
+   (``Cov(w̄_i, w̄_j) = Φ(k_j, k_i) Σ_{k_i}`` for ``k_i ≤ k_j``), so the fitted trajectory is not the smoother's.
+   It serves what the fit decides: where the window's trajectory lies (the re-linearisation point), the
+   screen and the chi-square test, which a deterministic trajectory fails once the disturbance's drift over
+   the window exceeds the measurement noise.
+2. The last state's moments are then the Kalman recursion with ``Q`` along the fitted trajectory, from the
+   prior at the window's start (:func:`_end_moments`): ``P⁻ = F P Fᵀ + Q``, and the mean's correction ``δ``
+   carried with it. That recursion is linear in the data given the reference trajectory, so on a linear model
+   it *is* the Kalman filter, whatever the reference: the approximation of 1. then does not reach the
+   estimate at all (``tests/estimators/test_fixed_lag.py``: equal to 1e-9). On the nonlinear model it
+   is one forward pass of the iterated extended Kalman smoother (Bell 1994) about the fit. With the weak-direction
+   quadrature the process noise's part is added to the mixture's moments as the difference of the recursion with
+   and without ``Q`` at the mode (an approximation: the nodes' own recursions are not redone).
+
 References
 ----------
 .. [1] Bell, *The iterated Kalman smoother as a Gauss–Newton method*, SIAM J. Optim. 4(3), 1994.
@@ -210,6 +233,15 @@ class MeasurementHistory:
     def __len__(self) -> int:
         return sum(len(ks) for _, ks, _, _ in self._rows.values())
 
+    def prune(self, k_keep: int) -> None:
+        """Forget the measurements at steps ``k ≤ k_keep`` (a moving window's prior holds them): memory bounded by the window."""
+        for key, (src, ks, zs, acc) in list(self._rows.items()):
+            first = int(np.searchsorted(np.asarray(ks), int(k_keep), side="right"))  # steps are added in order
+            if first == len(ks):
+                del self._rows[key]
+            elif first:
+                self._rows[key] = (src, ks[first:], zs[first:], acc[first:])
+
     def groups(self, k_start: int, k_end: int):
         """``(source, ks, Z, accepted)`` per source, for steps ``k_start < k ≤ k_end``, ``ks`` counted from ``k_start``."""
         for src, ks, zs, acc in self._rows.values():
@@ -246,6 +278,8 @@ class BatchPosterior:
     prior_flattened: tuple[int, ...] = ()  #: error-state indices whose prior contradicted the data (:data:`PRIOR_Z`)
     #: the weak inertia directions the quadrature integrated over, as rows (d, n_error); ``None`` without quadrature
     weak_directions: np.ndarray | None = None
+    #: degrees of freedom of the measurements the filter's gates accepted (``dof``: of those the fit's screen kept)
+    offered: int = 0
 
 
 @dataclass(frozen=True)
@@ -289,18 +323,28 @@ class _Linearisation:
 class _Problem:
     """The cost of :func:`posterior` and its Gauss–Newton pieces, for one data set."""
 
-    def __init__(self, model, servicer, history: MeasurementHistory, x0_prior, P0, k_start: int, k_end: int, dt: float, keep=None):
-        """``keep``: per source (in ``history``'s order) the mask of the measurements to fit; default the gate's verdicts."""
+    def __init__(self, model, servicer, history: MeasurementHistory, x0_prior, P0, k_start: int, k_end: int, dt: float, keep=None, Q=None):
+        """``keep``: per source (in ``history``'s order) the mask of the measurements to fit; default the gate's verdicts.
+
+        ``Q`` (n_error, n_error): the process noise per step inside the window, or ``None`` (deterministic); each
+        measurement's ``R_j`` is then inflated by :func:`_process_noise_at` (module docstring, *Process noise*).
+        """
         self.model, self.dt = model, float(dt)
         self.servicer = np.asarray(servicer, dtype=float)[int(k_start) : int(k_end)]
         self.x0_prior = np.asarray(x0_prior, dtype=float)
         self.P0 = np.asarray(P0, dtype=float)
+        self.Q = None if Q is None or not np.any(Q) else np.asarray(Q, dtype=float)
         self.prior_root = np.linalg.cholesky(np.linalg.inv(self.P0))  # P_0⁻¹ = L Lᵀ: prior rows Lᵀ δ
         rows = list(history.groups(int(k_start), int(k_end)))
-        # every measurement, whitened: (source, ks, Z, L) with R⁻¹ = L Lᵀ (residual rows Lᵀ y)
-        self.every = [(src, ks, Z, np.linalg.cholesky(np.linalg.inv(src.R))) for src, ks, Z, _ in rows]
+        # every measurement, whitened: (source, ks, Z, L) with R⁻¹ = L Lᵀ (residual rows Lᵀ y); with process noise one L per measurement
+        if self.Q is None:
+            self.every = [(src, ks, Z, np.linalg.cholesky(np.linalg.inv(src.R))) for src, ks, Z, _ in rows]
+        else:
+            X, _, F = model.trajectory(self.x0_prior, self.servicer, self.dt)
+            Sigma = _process_noise_at(F, self.Q)
+            self.every = [(src, ks, Z, _inflated_root(src.R, _sandwich(src.jacobians(X[ks]), Sigma[ks]))) for src, ks, Z, _ in rows]
         self.keep = [acc for *_, acc in rows] if keep is None else keep
-        self.groups = [(src, ks[m], Z[m], L) for (src, ks, Z, L), m in zip(self.every, self.keep) if m.any()]
+        self.groups = [(src, ks[m], Z[m], L if L.ndim == 2 else L[m]) for (src, ks, Z, L), m in zip(self.every, self.keep) if m.any()]
         self.dof = int(sum(len(ks) * src.R.shape[0] for src, ks, _, _ in self.groups))
 
     def screen(self, x0) -> list[np.ndarray]:
@@ -308,7 +352,7 @@ class _Problem:
         X = self.model.trajectory(x0, self.servicer, self.dt, jacobian=False)[0]
         out = []
         for src, ks, Z, L in self.every:
-            Yw = src.residual(Z, X[ks]) @ L
+            Yw = _whiten(src.residual(Z, X[ks]), L)
             out.append(np.sum(Yw * Yw, axis=1) <= chi2.ppf(SCREEN_QUANTILE, src.R.shape[0]))
         return out
 
@@ -322,9 +366,9 @@ class _Problem:
             ys = [-self.prior_root.T @ self.model.boxminus(x0, self.x0_prior)]
             Js = [self.prior_root.T] if jacobian else []
             for src, ks, Z, L in self.groups:
-                ys.append((src.residual(Z, X[ks]) @ L).reshape(-1))  # rows of Lᵀ y
+                ys.append(_whiten(src.residual(Z, X[ks]), L).reshape(-1))  # rows of Lᵀ y
                 if jacobian:
-                    Js.append(np.einsum("ji,njk->nik", L, src.jacobians(X[ks]) @ Phi[ks]).reshape(-1, n))
+                    Js.append(np.einsum("ji,njk->nik" if L.ndim == 2 else "nji,njk->nik", L, src.jacobians(X[ks]) @ Phi[ks]).reshape(-1, n))
             y = np.concatenate(ys)
             J = np.vstack(Js) if jacobian else None
             cost = float(y @ y)
@@ -353,6 +397,40 @@ class _Problem:
                 if lam > 1e12:
                     break
         return x0, lin, steps
+
+
+def _whiten(Y: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """Residual rows ``Y (n, d)`` whitened, ``Lᵀ y`` per row: by one ``L (d, d)`` or by each measurement's own ``L (n, d, d)``."""
+    return Y @ L if L.ndim == 2 else np.einsum("nj,nji->ni", Y, L)
+
+
+def _sandwich(H: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``H_j S_j H_jᵀ`` for stacks ``H (n, d, m)``, ``S (n, m, m)``: (n, d, d)."""
+    return np.einsum("nij,njk,nlk->nil", H, S, H)
+
+
+def _inflated_root(R: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``L (n, d, d)`` with ``L_j L_jᵀ = (R + S_j)⁻¹``: ``L_j = C_j⁻ᵀ``, ``C_j`` the Cholesky factor of ``R + S_j``.
+
+    Factored directly rather than through ``(R + S_j)⁻¹`` (whose Cholesky factor failed on SC1, where ``Φ`` grows like
+    ``e^{λt}`` and ``S_j`` spans decades); ``R + S_j ≥ R`` is positive definite once ``S_j`` is symmetrised.
+    """
+    S = 0.5 * (S + np.swapaxes(S, -1, -2))
+    if not np.all(np.isfinite(S)):
+        raise BatchFitError("the process noise accumulated along the prior's trajectory is not finite")
+    return np.swapaxes(np.linalg.inv(np.linalg.cholesky(R + S)), -1, -2)
+
+
+def _process_noise_at(F: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``Σ_k = Σ_{i<k} Φ(k, i+1) Q Φ(k, i+1)ᵀ`` (N+1, n, n): the process noise accumulated from the window's start to step ``k``.
+
+    ``F (N, n, n)``: the steps' error-state transitions along the prior's trajectory; ``Q``: the noise per step.
+    The recursion ``Σ_{k+1} = F_k Σ_k F_kᵀ + Q``, ``Σ_0 = 0`` (module docstring, *Process noise*).
+    """
+    Sigma = np.zeros((len(F) + 1,) + Q.shape)
+    for k in range(len(F)):
+        Sigma[k + 1] = F[k] @ Sigma[k] @ F[k].T + Q
+    return Sigma
 
 
 def _initial_root(lin: _Linearisation, P0: np.ndarray, est: np.ndarray, con: np.ndarray) -> np.ndarray:
@@ -520,7 +598,7 @@ def _profile_extent(problem: _Problem, x0, lin: _Linearisation, C0, u, sigma: fl
 
 
 def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end: int, dt: float, *, k_start: int = 0,
-              x0_start=None, consider=(), k_states=None, suspect=()) -> BatchPosterior:
+              x0_start=None, consider=(), k_states=None, suspect=(), Q=None) -> BatchPosterior:
     """The posterior of the state at grid step ``k_end`` given a prior at step ``k_start`` and the measurements after it.
 
     ``model``: the process model (``trajectory``, ``boxplus``/``boxminus``);
@@ -539,9 +617,10 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
     axis): when the fit fails its test, it is redone from the gates' verdicts with
     the prior made nearly flat there (module docstring), and
     ``prior_flattened`` names them if that fit is the one returned.
-    ``BatchPosterior.x0`` is the state at ``k_start``.
+    ``BatchPosterior.x0`` is the state at ``k_start``. ``Q`` (n_error, n_error): process noise per grid step inside
+    the window (``None``: the deterministic fit of the module docstring; else its section *Process noise*).
     """
-    problem = _Problem(model, servicer, history, x0_prior, P0, k_start, k_end, dt)
+    problem = _Problem(model, servicer, history, x0_prior, P0, k_start, k_end, dt, Q=Q)
     offered = problem.dof  # the measurements the gates accepted
     n = problem.P0.shape[0]
     con = np.asarray(sorted(set(int(i) for i in consider)), dtype=int)
@@ -557,19 +636,19 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
         keep = problem.screen(x0)
         if all(np.array_equal(a, b) for a, b in zip(keep, problem.keep)):
             break
-        problem = _Problem(model, servicer, history, x0_prior, P0, k_start, k_end, dt, keep=keep)
+        problem = _Problem(model, servicer, history, x0_prior, P0, k_start, k_end, dt, keep=keep, Q=Q)
         x0, lin, more = problem.minimise(x0, np.eye(n)[:, est])
         steps += more
     z = problem.model.boxminus(x0, problem.x0_prior) / np.sqrt(np.diag(problem.P0))
     flat = np.flatnonzero(np.abs(z) > PRIOR_Z)
     if flat.size:  # the prior contradicts the data there: let the data decide (module docstring)
-        problem = _Problem(model, servicer, history, x0_prior, _flattened(problem.P0, flat), k_start, k_end, dt, keep=problem.keep)
+        problem = _Problem(model, servicer, history, x0_prior, _flattened(problem.P0, flat), k_start, k_end, dt, keep=problem.keep, Q=Q)
         x0, lin, more = problem.minimise(x0, np.eye(n)[:, est])
         steps += more
     suspect = np.asarray(suspect, dtype=int)
     if suspect.size and not _passes(lin, problem.dof, offered):  # a suspect prior that contradicts the data as a whole (module docstring)
         alt = posterior(model, servicer, history, x0_prior, _flattened(np.asarray(P0, dtype=float), suspect), k_end, dt, k_start=k_start,
-                        x0_start=x0_start, consider=consider, k_states=k_states)
+                        x0_start=x0_start, consider=consider, k_states=k_states, Q=Q)
         if alt.usable:
             return dataclasses.replace(alt, iterations=alt.iterations + steps,
                                        prior_flattened=tuple(int(i) for i in np.union1d(alt.prior_flattened, suspect)))
@@ -582,9 +661,13 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
     if moments is not None:
         x, P, weak, nodes = moments
     else:
-        x, P, weak, nodes = lin.x_end, _end_covariance(problem, x0, con), None, 0
+        x, P, weak, nodes = lin.x_end, _end_moments(problem, x0, con, None)[1], None, 0
+    if problem.Q is not None:  # the process noise inside the window (module docstring, *Process noise*)
+        d_q, P_q = _end_moments(problem, x0, con, problem.Q)
+        d_0, P_0 = (0.0, P) if moments is None else _end_moments(problem, x0, con, None)
+        x, P = problem.model.boxplus(x, d_q - d_0), P + P_q - P_0
     return BatchPosterior(x=x, P=_factorable(P), x0=x0, cost=lin.cost, dof=problem.dof, usable=_passes(lin, problem.dof, offered) and not held_dominate,
-                          iterations=steps, nodes=nodes, prior_flattened=tuple(int(i) for i in flat), weak_directions=weak)
+                          iterations=steps, nodes=nodes, prior_flattened=tuple(int(i) for i in flat), weak_directions=weak, offered=offered)
 
 
 def _passes(lin: _Linearisation, dof: int, offered: int) -> bool:
@@ -627,49 +710,58 @@ def _factorable(P: np.ndarray) -> np.ndarray:
     return (V * np.maximum(lam, floor)) @ V.T
 
 
-def _end_covariance(problem: _Problem, x0: np.ndarray, con: np.ndarray) -> np.ndarray:
-    """The Laplace covariance of the last state, by the Kalman covariance recursion along the fitted trajectory.
+def _end_moments(problem: _Problem, x0: np.ndarray, con: np.ndarray, Q: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(δ, C)``: the last state's mean as an error ``δ`` (n_error,) about the fitted trajectory's end, and its covariance.
 
-    Mathematically ``Φ C₀ Φᵀ``; formed that way it lost definiteness where
-    ``Φ`` spans decades (rate errors move positions by ``50 m × t``, and SC1–SC2
-    spin about the intermediate axis, so ``Φ`` grows like ``e^{λt}``: on SC2 the
-    computed ``P`` had eigenvalues of −1e-19 where the filter's own were
-    5e-11). The recursion takes one step's ``F`` at a time (Joseph form), as
-    the filters do. With considered states ``c`` (held at the prior) it is the
-    consider analysis of Tapley et al. §6.3: the filter of the estimated states
-    ``e`` from the conditional prior ``P_e|c`` (``M = P_ec P_cc⁻¹``), and the
-    sensitivity ``Ψ = ∂ε_e/∂δc`` of its error to the held states' error,
-    ``Ψ⁻ = F_ee Ψ − F_ec``, ``Ψ = (I − K H_e) Ψ⁻ + K H_c``, ``Ψ_0 = −M``; then
-    ``C_ee = P + Ψ P_cc Ψᵀ``, ``C_ec = −Ψ P_cc``, ``C_cc = P_cc``.
+    The Kalman recursion along the fitted trajectory from ``x0``, linearised about it: one step's ``F`` at
+    a time (Joseph form), as the filters do. Without process noise (``Q`` None) ``C`` is the Laplace
+    covariance ``Φ C₀ Φᵀ`` (formed that way it lost definiteness where ``Φ`` spans decades: rate errors
+    move positions by ``50 m × t``, and SC1–SC2 spin about the intermediate axis, so ``Φ`` grows like
+    ``e^{λt}``; on SC2 the computed ``P`` had eigenvalues of −1e-19 where the filter's own were 5e-11) and
+    ``δ ≈ 0`` (the fit is the minimum: the recursion's correction is ``Φ`` times the Gauss–Newton step). With
+    ``Q`` (n_error, n_error) per step, ``P⁻ = F P Fᵀ + Q_ee``: the recursion is then the Kalman filter of the
+    window's data from the prior, linearised about the fit, and ``δ`` its correction (module docstring, *Process
+    noise*). With considered states ``c`` (held at the prior) it is the consider analysis of Tapley et al.
+    §6.3: the filter of the estimated states ``e`` from the conditional prior ``P_e|c`` (``M = P_ec P_cc⁻¹``),
+    and the sensitivity ``Ψ = ∂ε_e/∂δc`` of its error to the held states' error, ``Ψ⁻ = F_ee Ψ − F_ec``,
+    ``Ψ = (I − K H_e) Ψ⁻ + K H_c``, ``Ψ_0 = −M``; then ``C_ee = P + Ψ P_cc Ψᵀ``, ``C_ec = −Ψ P_cc``, ``C_cc = P_cc``.
     """
     X, _, F = problem.model.trajectory(x0, problem.servicer, problem.dt)
     n = problem.P0.shape[0]
     est = np.setdiff1d(np.arange(n), con)
     at_step: dict[int, list] = {}
-    for src, ks, _, _ in problem.groups:
-        for k, H in zip(ks, src.jacobians(X[ks])):
-            at_step.setdefault(int(k), []).append((H, src.R))
+    for src, ks, Z, _ in problem.groups:
+        for k, H, y in zip(ks, src.jacobians(X[ks]), src.residual(Z, X[ks])):
+            at_step.setdefault(int(k), []).append((H, src.R, y))
     P0 = problem.P0
     Pcc = P0[np.ix_(con, con)]
     M = P0[np.ix_(est, con)] @ np.linalg.inv(Pcc) if con.size else np.zeros((est.size, 0))
     P = P0[np.ix_(est, est)] - M @ P0[np.ix_(con, est)]
+    d_prior = problem.model.boxminus(problem.x0_prior, x0)
+    d = d_prior[est] - M @ d_prior[con]  # the prior's mean about the fit, given the held states at the prior's values
     Psi = -M
     I = np.eye(est.size)
+    Qee = None if Q is None else Q[np.ix_(est, est)]
     for k in range(1, len(X)):
         Fee, Fec = F[k - 1][np.ix_(est, est)], F[k - 1][np.ix_(est, con)]
-        P = Fee @ P @ Fee.T
+        P = Fee @ P @ Fee.T if Qee is None else Fee @ P @ Fee.T + Qee
+        d = Fee @ d
         Psi = Fee @ Psi - Fec
         if k in at_step:
-            H = np.vstack([h for h, _ in at_step[k]])
-            R = _block_diag([r for _, r in at_step[k]])
+            H = np.vstack([h for h, _, _ in at_step[k]])
+            R = _block_diag([r for _, r, _ in at_step[k]])
+            y = np.concatenate([v for _, _, v in at_step[k]])
             He, Hc = H[:, est], H[:, con]
             K = np.linalg.solve(He @ P @ He.T + R, He @ P).T
             IKH = I - K @ He
             P = IKH @ P @ IKH.T + K @ R @ K.T
+            d = d + K @ (y - He @ d)
             Psi = IKH @ Psi + K @ Hc
     C = np.zeros((n, n))
     C[np.ix_(est, est)] = P + Psi @ Pcc @ Psi.T
     C[np.ix_(est, con)] = -Psi @ Pcc
     C[np.ix_(con, est)] = (-Psi @ Pcc).T
     C[np.ix_(con, con)] = Pcc
-    return C
+    delta = np.zeros(n)
+    delta[est] = d
+    return delta, C
