@@ -53,7 +53,7 @@ def sentinel(name):
 SENTINELS = {
     "studies.cli.simulate.simulate_truth": "truth",
     "studies.sim.truth.simulate_truth": "run-truth",  # lcnav run imports it when it runs (studies.cli.simulate has its own name)
-    "studies.cli.combina.run_combina": "combina",
+    "studies.sim.combina.run_combina": "combina",  # lcnav combina imports it when it runs
     "lightcurves.render.UnresolvedRenderer": "renderer",
     "studies.cli.perception.frame_pipeline": "frames",
     "studies.cli.perception.bench_registration": "bench",

@@ -32,6 +32,23 @@ def shot(rrds, png, **kw):
         pytest.skip(f"no headless screenshots here: {e}")
 
 
+#: Pictures taken of the same recording before one shows its plots: on a loaded machine rerun 0.41's headless viewer
+#: sometimes saves its frame before the time-series views have drawn (measured 3 of 9 pictures with three busy loops on
+#: 2 cores; 0 of 7 otherwise), a known limit of ``--screenshot-to`` that the picture check cannot tell from an empty run.
+ATTEMPTS = 3
+XYZ = {a: COMPONENT_RGB[a] for a in "xyz"}  #: the three components' line colours
+
+
+def drawn(take, rgbs) -> tuple[np.ndarray, dict]:
+    """The first of :data:`ATTEMPTS` pictures ``take()`` in which every colour of ``rgbs`` covers over 300 pixels (else the last)."""
+    for _ in range(ATTEMPTS):
+        image = mpimg.imread(take())
+        counts = {k: pixels_near(image, rgb) for k, rgb in rgbs.items()}
+        if min(counts.values()) > 300:
+            break
+    return image, counts
+
+
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     """A recording of one filter's ``w_ST_T`` estimate (coloured per component) against its truth, 600 s."""
@@ -48,11 +65,9 @@ def small_run(tmp_path_factory):
 def test_the_viewer_opens_on_truth_and_estimate_in_their_component_colours(small_run, tmp_path, monkeypatch):
     (tmp_path / "run.rrd").symlink_to(small_run)
     monkeypatch.chdir(tmp_path)  # relative paths, as in the README: the viewer once showed "No such file" for them
-    png = shot("run.rrd", "shot.png", width_px=900, height_px=600)
-    assert png == tmp_path / "shot.png"
-    image = mpimg.imread(png)
+    assert shot("run.rrd", "shot.png", width_px=900, height_px=600) == tmp_path / "shot.png"
+    image, counts = drawn(lambda: shot("run.rrd", "shot.png", width_px=900, height_px=600), XYZ)
     assert image.shape[0] >= 600 and image.shape[1] >= 900
-    counts = {a: pixels_near(image, COMPONENT_RGB[a]) for a in "xyz"}
     # each estimate line is drawn across the plot: hundreds of pixels of its hue
     assert min(counts.values()) > 300, counts
     # and an empty recording (the same blueprint, nothing logged) shows none of them
@@ -66,13 +81,17 @@ def test_the_viewer_opens_on_truth_and_estimate_in_their_component_colours(small
 @pytest.mark.slow  # the viewer draws at 900x600 and 1600x1000: 2-4 s each idle, tens of seconds on a loaded machine
 def test_lcnav_inspect_screenshot_draws_the_recording(small_run, tmp_path, capsys):
     png = tmp_path / "inspect.png"
-    code = main(["inspect", str(small_run), "--screenshot", str(png)])
-    err = capsys.readouterr().err
-    if code == 2 and "Vulkan" in err:
-        pytest.skip(f"no headless screenshots here: {err.strip()}")
-    assert code == 0, err
-    image = mpimg.imread(png)
-    assert min(pixels_near(image, COMPONENT_RGB[a]) for a in "xyz") > 300
+
+    def take():
+        code = main(["inspect", str(small_run), "--screenshot", str(png)])
+        err = capsys.readouterr().err
+        if code == 2 and "Vulkan" in err:
+            pytest.skip(f"no headless screenshots here: {err.strip()}")
+        assert code == 0, err
+        return png
+
+    _, counts = drawn(take, XYZ)
+    assert min(counts.values()) > 300, counts
     assert main(["inspect", str(small_run), "--screenshot", str(tmp_path / "x.jpg")]) == 2  # refused before drawing
     assert "expected a .png file name" in capsys.readouterr().err and not (tmp_path / "x.jpg").exists()
 
