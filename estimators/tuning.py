@@ -181,7 +181,9 @@ instead of growing like a random walk), on SC1 they are over-confident on the pe
 The window and its anchors are consistent without the budget (the ``Q = 0`` diagnostic); what is missing is an honest,
 scenario-independent ``Q`` for it (issue 31, deliverable 2). Measured afterwards (EKF, 10 runs of 600 s, seeds 1000–1009,
 perturbed truth): with no ``Q`` at all SC3's NEES/dof is 19.4 (88 % of the steps above the band) and SC1's 1.83; with the
-budget's three intensities scaled by 0.1, SC3's is 0.962 [0.834, 1.09], 96.5 % of the steps in band (0.01: 1.83). The
+budget's three intensities scaled by 0.1, SC3's is 0.962 [0.834, 1.09], 96.5 % of the steps in band (0.01: 1.83), SC3
+torque-free 0.777 (64 % of the steps below the band), SC1 perturbed 0.954 [0.58, 1.33] with 48 % in band (37 % below,
+14 % above; worst run 2.2). The
 zero-frequency intensity of the perturbed truth's own disturbance, ``q_H = H · Var`` of its ``H``-second means (one orbit,
 per axis), agrees with that factor for the angular part: ``q_H / q_budget`` = 0.34, 0.076, 0.041 at ``H`` = 60, 300, 600 s
 (SC3; SC1 0.23, 0.061, 0.035): the torque turns with the target and its integral stays bounded. The differential
