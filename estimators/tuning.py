@@ -137,10 +137,10 @@ accumulated since the window's start, the last state's moments by the window's K
 :mod:`estimators.batch`, *Process noise*; exact on a linear model, ``tests/estimators/test_fixed_lag.py``) and
 the recursion between fits. Measured 2026-11-27:
 
-* Cost (``benchmarks/bench_realtime.py``, SC3 torque-free, two orbits, 11 400 s, seed 1, CPU time per step):
-  median 0.24 ms (EKF) and 0.72 ms (UKF); mean of the 100-step block at 300 s 4.73 / 4.97 ms, of the last block
-  4.61 / 4.61 ms (ratio 0.98 / 0.93: flat; the amortised cost is that of one 60-s fit every 10 s). Same run:
-  ``relinearized`` EKF 49.8 ms at 300 s and 198 ms at 800 s (3.98×); filterpy's EKF/UKF medians 0.066 / 1.135 ms.
+* Cost (``benchmarks/bench_realtime.py``, SC3 torque-free, two orbits, 11 400 s, seed 1, CPU time per step; re-run
+  with the anchor rule): median 0.18 ms (EKF) and 0.51 ms (UKF); mean of the 100-step block at 300 s 3.93 / 4.20 ms, of
+  the last block 3.87 / 4.14 ms (ratio 0.98 / 0.98: flat; the amortised cost is that of one 60-s fit every 10 s). Same
+  run: ``relinearized`` EKF 51 ms at 300 s and 160 ms at 800 s (3.13×); filterpy's EKF/UKF medians 0.064 / 1.03 ms.
 * Consistency (``consistency_check``, 30 runs of 600 s at 1 s, seeds 1000–1029, after 60 s; mean NEES/dof [95 %
   t interval], steps in the 95 % band, worst run, NIS in band attitude/position, gate rejections attitude/position):
 
