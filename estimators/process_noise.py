@@ -41,12 +41,40 @@ axis being the RMS of the norm squared over 3. The inertia-ratio block is a rand
 constant acceleration over one step, ``q = σ² τ`` (rate variance ``σ² τ²``), which the module
 uses as a floor: ``q = σ² max(2 T_c, τ)``.
 
+Matched intensity
+-----------------
+A Gauss–Markov ``σ, T_c`` over-states what a tumbling target's torque does to a filter: the gravity-gradient
+torque turns with the target, its integral stays bounded, and its spectrum near zero frequency — the only part a
+filter with a memory of minutes cannot average out — is far below ``2 σ² T_c`` (measured: the perturbed truth's
+``H``-second means carry 0.34, 0.076 and 0.041 of that intensity at ``H`` = 60, 300, 600 s on SC3).
+:func:`matched_intensity` states the budget as the white-noise intensity that gives the filter the error variance the
+real spectrum gives it. One axis of the double integrator ``ξ̈ = a`` measured as ``y = ξ + v`` (``E[v v] = r δ``,
+``r = R τ_s`` for a measurement variance ``R`` every ``τ_s``): with a white ``a`` of intensity ``q`` the steady-state
+Kalman–Bucy gains are ``K = [√2 ω_n, ω_n²]``, ``ω_n = (q/r)^{1/4}`` (Bar-Shalom et al. §6.5; Brown & Hwang,
+*Introduction to Random Signals and Applied Kalman Filtering*, 4th ed., §8.3), and the estimate's error responds to
+the acceleration through
+
+    E_ξ(s) = 1 / (s² + √2 ω_n s + ω_n²),   E_ξ̇(s) = (s + √2 ω_n) / (s² + √2 ω_n s + ω_n²).        (2)
+
+Its rate-error variance from an acceleration of two-sided spectral density ``S(ω)`` is ``(1/2π) ∫ |E_ξ̇(jω)|² S(ω) dω``,
+and from the white model ``q`` times the same integral of ``|E_ξ̇|²``. The two agree when
+
+    q = ∫ |E_ξ̇(jω; q)|² S(ω) dω / ∫ |E_ξ̇(jω; q)|² dω,                                           (3)
+
+a weighted mean of the spectrum over the filter's own band — a fixed point, since ``ω_n`` depends on ``q``
+(solved by iteration from the spectrum's mean; a contraction: ``ω_n`` moves as ``q^{1/4}``). White ``S = q₀``
+gives ``q₀``; a spectrum whose power lies far above ``ω_n`` (a torque at the spin harmonics) gives nearly nothing.
+:class:`MatchedBudget` holds the three intensities so derived (``studies.sim.disturbance.matched_budget`` measures
+them on a simulated truth) and assembles ``Q_d`` by eq. (1), as :class:`DisturbanceBudget` does from ``σ, T_c``.
+
 References
 ----------
 .. [1] Bar-Shalom, Li, Kirubarajan, *Estimation with Applications to Tracking and Navigation*, Wiley, 2001,
    §6.2 (discretised continuous white-noise acceleration model), §8.2.
 .. [2] Van Loan, *Computing integrals involving the matrix exponential*, IEEE TAC 23(3), 1978.
 .. [3] Maybeck, *Stochastic Models, Estimation, and Control*, vol. 1, Academic Press, 1979, §4.10.
+.. [4] Brown, Hwang, *Introduction to Random Signals and Applied Kalman Filtering*, 4th ed., Wiley, 2012, §8.3
+   (steady-state Kalman–Bucy filter of the double integrator).
 """
 
 from __future__ import annotations
@@ -126,12 +154,77 @@ class DisturbanceBudget:
 
     def Q_d(self, tau_s: float) -> np.ndarray:
         """``Q_d`` (14, 14) over the error state ``[δp, δω, δr, δv, δk]`` for a step of ``tau_s`` s (eq. 1 per axis)."""
-        Q = np.zeros((N_ERROR, N_ERROR))
-        for (pos, rate), sigma in (((DTHETA, DW_ST_T), self.sigma_alpha_rad_s2), ((DR_ST_T, DV_ST_T), self.sigma_a_m_s2)):
-            b = self.axis_block(sigma, tau_s)
-            eye = np.eye(3)
-            Q[pos, pos] = b[0, 0] * eye
-            Q[pos, rate] = Q[rate, pos] = b[0, 1] * eye
-            Q[rate, rate] = b[1, 1] * eye
-        Q[DK, DK] = self.intensity(self.sigma_kdot_1_s, tau_s) * float(tau_s) * np.eye(2)
-        return Q
+        return relative_Q_d(self.intensity(self.sigma_alpha_rad_s2, tau_s), self.intensity(self.sigma_a_m_s2, tau_s),
+                            self.intensity(self.sigma_kdot_1_s, tau_s), tau_s)
+
+
+def relative_Q_d(q_alpha: float, q_a: float, q_kdot: float, tau_s: float) -> np.ndarray:
+    """``Q_d`` (14, 14) over ``[δp, δω, δr, δv, δk]`` for a step of ``tau_s`` s: eq. (1) per axis with the angular (``q_alpha``,
+    rad²/s³) and the translational (``q_a``, m²/s³) intensities, a random walk of intensity ``q_kdot`` (1/s) on each ``k``."""
+    Q = np.zeros((N_ERROR, N_ERROR))
+    eye = np.eye(3)
+    for (pos, rate), q in (((DTHETA, DW_ST_T), q_alpha), ((DR_ST_T, DV_ST_T), q_a)):
+        b = white_noise_acceleration(q, tau_s)
+        Q[pos, pos] = b[0, 0] * eye
+        Q[pos, rate] = Q[rate, pos] = b[0, 1] * eye
+        Q[rate, rate] = b[1, 1] * eye
+    Q[DK, DK] = float(q_kdot) * float(tau_s) * np.eye(2)
+    return Q
+
+
+def rate_error_response(omega_rad_s, q: float, r: float) -> np.ndarray:
+    """``|E_ξ̇(jω)|²`` of eq. (2) (s²) at angular frequencies ``omega_rad_s`` for intensities ``q`` (acceleration) and ``r`` (measurement)."""
+    wn = (float(q) / float(r)) ** 0.25
+    s = 1j * np.asarray(omega_rad_s, dtype=float)
+    return np.abs((s + np.sqrt(2.0) * wn) / (s * s + np.sqrt(2.0) * wn * s + wn * wn)) ** 2
+
+
+def matched_intensity(freq_hz, psd_one_sided, r: float, *, rtol: float = 1e-10, max_iter: int = 500) -> float:
+    """Eq. (3): the white-noise intensity ``q`` that gives a steady-state filter the rate-error variance the spectrum gives it.
+
+    ``freq_hz (n,)``: frequencies ≥ 0, Hz, evenly spaced from 0 (a periodogram's); ``psd_one_sided (n,)``: the acceleration's
+    one-sided spectral density there (unit²/Hz; white noise of intensity ``q`` has ``2 q``), e.g. ``scipy.signal.periodogram``'s;
+    ``r``: the measurement's noise intensity ``R τ_s`` (unit² s). Returns ``q`` (unit²/s³ for an acceleration in unit/s²).
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    G = np.asarray(psd_one_sided, dtype=float)
+    if f.ndim != 1 or f.shape != G.shape or f.size < 2 or not (np.all(np.isfinite(f)) and np.all(np.isfinite(G))):
+        raise ValueError(f"freq_hz, psd_one_sided: shapes {f.shape}, {G.shape}: expected two finite 1-D arrays of the same length >= 2")
+    if f[0] != 0.0 or np.any(np.diff(f) <= 0) or np.any(G < 0):
+        raise ValueError("freq_hz, psd_one_sided: expected increasing frequencies from 0 Hz and a non-negative density")
+    if not (np.isfinite(r) and r > 0):
+        raise ValueError(f"r: {r!r}: expected a finite measurement noise intensity > 0")
+    S = G / 2.0  # two-sided, per the q convention of eq. (1)
+    q = float(np.mean(S))
+    if q == 0.0:
+        return 0.0
+    omega = 2.0 * np.pi * f
+    for _ in range(max_iter):
+        W = rate_error_response(omega, q, r)
+        q_new = float(np.sum(W * S) / np.sum(W))
+        if abs(q_new - q) <= rtol * q:
+            return q_new
+        q = q_new
+    raise RuntimeError(f"matched_intensity: no fixed point after {max_iter} iterations (last q {q:.3g})")
+
+
+@dataclass(frozen=True)
+class MatchedBudget:
+    """Matched intensities (eq. 3) of the unmodelled accelerations: ``q_alpha_rad2_s3`` (the target's ``ω̇``, per axis),
+    ``q_a_m2_s3`` (the differential translational acceleration, per axis), ``q_kdot_1_s`` (random walk of each ``k``).
+    ``source``: where they were measured. ``Q_d`` as :class:`DisturbanceBudget`'s (eq. 1)."""
+
+    q_alpha_rad2_s3: float
+    q_a_m2_s3: float
+    q_kdot_1_s: float = 0.0
+    source: str = ""
+
+    def __post_init__(self):
+        for name in ("q_alpha_rad2_s3", "q_a_m2_s3", "q_kdot_1_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float | np.floating) and np.isfinite(v) and v >= 0):
+                raise ValueError(f"MatchedBudget.{name}: {v!r}: expected a finite intensity >= 0")
+
+    def Q_d(self, tau_s: float) -> np.ndarray:
+        """``Q_d`` (14, 14) for a step of ``tau_s`` s (:func:`relative_Q_d`)."""
+        return relative_Q_d(self.q_alpha_rad2_s3, self.q_a_m2_s3, self.q_kdot_1_s, tau_s)

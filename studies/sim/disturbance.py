@@ -87,6 +87,18 @@ def _with_total(per_term: dict[str, np.ndarray]) -> dict[str, TermStatistics]:
     return out
 
 
+def unmodelled_accelerations(scenario: Scenario, physics: TruthPhysics, duration_s: float) -> tuple:
+    """``(truth, per-term ω̇ in T, per-term a_S − a_T in L, the same in T)`` along the truth, every :data:`BUDGET_DT_S`."""
+    tr = simulate_truth(scenario, duration_s, BUDGET_DT_S, physics)
+    acc_T = perturbing_accelerations(tr.target, tr.J_T_diag, physics.body_params("target", tr.target[0, R_I]))
+    acc_S = perturbing_accelerations(tr.servicer, tr.J_S_diag, physics.body_params("servicer", tr.servicer[0, R_I]))
+    C_LI = lvlh_dcm(tr.servicer[:, R_I], tr.servicer[:, V_I])
+    C_TI = np.swapaxes(quat_to_dcm(tr.target[:, Q_IB]), 1, 2)
+    diff_I = {k: acc_S[k] - acc_T[k] for k in TRANSLATIONAL_TERMS}
+    return (tr, {k: acc_T[k] for k in ANGULAR_TERMS}, {k: np.einsum("nij,nj->ni", C_LI, a) for k, a in diff_I.items()},
+            {k: np.einsum("nij,nj->ni", C_TI, a) for k, a in diff_I.items()})
+
+
 def disturbance_budget(scenario: Scenario, physics: str | TruthPhysics = "perturbed", duration_s: float = 600.0) -> DisturbanceBudget:
     """The unmodelled accelerations along ``scenario``'s truth under ``physics``, sampled every :data:`BUDGET_DT_S`.
 
@@ -94,19 +106,7 @@ def disturbance_budget(scenario: Scenario, physics: str | TruthPhysics = "pertur
     where the bodies really are; deterministic (nothing is drawn).
     """
     physics = get_truth_physics(physics)
-    tr = simulate_truth(scenario, duration_s, BUDGET_DT_S, physics)
-    p_T = physics.body_params("target", tr.target[0, R_I])
-    p_S = physics.body_params("servicer", tr.servicer[0, R_I])
-    acc_T = perturbing_accelerations(tr.target, tr.J_T_diag, p_T)
-    acc_S = perturbing_accelerations(tr.servicer, tr.J_S_diag, p_S)
-    C_LI = lvlh_dcm(tr.servicer[:, R_I], tr.servicer[:, V_I])
-    C_TI = np.swapaxes(quat_to_dcm(tr.target[:, Q_IB]), 1, 2)
-    diff_I = {k: acc_S[k] - acc_T[k] for k in TRANSLATIONAL_TERMS}
-    return DisturbanceBudget(
-        scenario=scenario.name,
-        physics=physics,
-        duration_s=float(tr.t[-1]),
-        angular_T=_with_total({k: acc_T[k] for k in ANGULAR_TERMS}),
-        translational_L=_with_total({k: np.einsum("nij,nj->ni", C_LI, a) for k, a in diff_I.items()}),
-        translational_T=_with_total({k: np.einsum("nij,nj->ni", C_TI, a) for k, a in diff_I.items()}),
-    )
+    tr, angular_T, translational_L, translational_T = unmodelled_accelerations(scenario, physics, duration_s)
+    return DisturbanceBudget(scenario=scenario.name, physics=physics, duration_s=float(tr.t[-1]), angular_T=_with_total(angular_T),
+                             translational_L=_with_total(translational_L), translational_T=_with_total(translational_T))
+

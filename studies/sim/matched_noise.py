@@ -1,0 +1,134 @@
+"""The relative filters' process noise matched to what their model gets wrong on the perturbed truth (issue 31).
+
+:mod:`estimators.process_noise` turns intensities into ``Q_d`` (eq. 1 there); this module measures the intensities.
+A ``σ, T_c`` budget (:class:`estimators.process_noise.DisturbanceBudget`) over-states a tumbling target's torque:
+it turns with the target, so its integral stays bounded while a white noise's grows (the module docstring there).
+What a filter needs instead is a ``Q`` whose accumulated covariance over the filter's memory matches the error its
+own process model makes over that time. Measured directly:
+
+1. **Prediction errors.** Along the truth, from windows starting every :data:`STRIDE_S` s, propagate the *true*
+   state with the filters' model (:class:`estimators.process_model.RelativeProcessModel`) for ``H`` seconds:
+   ``δx = x(t₀ + H) ⊟ f_H(x(t₀))`` — all of it is the unmodelled physics (the model's own integration error is
+   1e-7 m per step).
+2. **The model's covariance of them.** A unit white acceleration on the rate (``Q_d`` of eq. 1 with ``q = 1``, per
+   step) accumulated through the same trajectory's step Jacobians ``F_j``:
+   ``M_α = Σ_j Φ(H, j) Q_d,j Φ(H, j)ᵀ`` — the covariance the filter would predict for ``δx`` per unit intensity, with
+   the Euler and orbital couplings it models.
+3. **Angular intensity** (eq. M1): ``q_α(H) = mean over windows of δωᵀ (M_α,ωω)⁻¹ δω / 3``, the intensity for which
+   the rate's prediction errors have unit NEES.
+4. **Horizon** (eq. M2): the memory of the steady-state filter that measures attitude with intensity
+   ``r = R τ_s`` (:mod:`estimators.process_noise`, eq. 2): ``H = 1/ω_n = (r / q_α)^{1/4}``; eqs. M1–M2 are solved
+   together (:func:`matched_angular`).
+5. **Translational intensity**: the spectrum of ``a_S − a_T`` (frame T) matched to the filter that measures position
+   (:func:`estimators.process_noise.matched_intensity`, eq. 3). Not by steps 1–4: the position–velocity prediction
+   errors are mostly the rotation's (at 50 m a rate error of 2e-5 rad/s is 1e-3 m/s of relative velocity in the
+   target frame, far more than J2 and drag do), and along the directions the rotation leaves alone they are
+   millimetres against the 0.2-m measurement noise: a unit-NEES match there asked for 240–1200× the ``σ`` budget's
+   intensity, for errors no filter step can see.
+6. **Inertia ratios**: the nutation damping's spectrum matched to the same filter
+   (:func:`estimators.process_noise.matched_intensity`, eq. 3) mapped by
+   :func:`estimators.process_noise.kdot_from_dissipation` (``k̇ = α_d / |ω|²``, so ``q_k = q_αd / |ω|⁴``).
+
+The largest of the scenarios' intensities is the budget (:func:`matched_budget`), as for the ``σ`` budget.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import periodogram
+
+from estimators.error_state import boxminus
+from estimators.measurement import PoseNoise
+from estimators.perturbations import TruthPhysics, get_truth_physics
+from estimators.process_model import RelativeProcessModel
+from estimators.process_noise import MatchedBudget, kdot_from_dissipation, matched_intensity, relative_Q_d
+from estimators.state import DW_ST_T, N_ERROR
+from studies.sim.disturbance import BUDGET_DT_S, unmodelled_accelerations
+from studies.sim.scenarios import Scenario
+
+#: Record the intensities are measured on, s: two orbits at 500 km (the spectra's lowest frequency, 1/11 400 Hz, lies
+#: below the filters' band, ~1/300 s).
+MATCH_DURATION_S = 11_400.0
+#: Spacing of the prediction windows' starts, s (not a divisor of the spin or orbit periods).
+STRIDE_S = 97.0
+
+def prediction_errors(truth, horizon_s: float, stride_s: float = STRIDE_S) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 1–2 of the module docstring on ``truth`` (sampled every :data:`BUDGET_DT_S`): ``(δx (n, 14), M_α (n, 14, 14))``
+    for windows of ``horizon_s`` starting every ``stride_s``."""
+    H, stride = int(round(horizon_s / BUDGET_DT_S)), max(1, int(round(stride_s / BUDGET_DT_S)))
+    if H < 1 or H >= len(truth.t):
+        raise ValueError(f"horizon_s: {horizon_s!r}: expected at least one step and less than the truth's {truth.t[-1]:g} s")
+    model = RelativeProcessModel(truth.J_S_diag)
+    Q_alpha = relative_Q_d(1.0, 0.0, 0.0, BUDGET_DT_S)
+    d, M_alpha = [], []
+    for i0 in range(0, len(truth.t) - H, stride):
+        X, _, F = model.trajectory(truth.x[i0], truth.servicer[i0:i0 + H], BUDGET_DT_S)
+        d.append(boxminus(truth.x[i0 + H], X[-1]))
+        T = np.eye(N_ERROR)  # Φ(H, j): from the end of step j to the window's end, accumulated backwards
+        M = np.zeros((N_ERROR, N_ERROR))
+        for j in range(H - 1, -1, -1):
+            M += T @ Q_alpha @ T.T
+            T = T @ F[j]
+        M_alpha.append(M)
+    return np.array(d), np.array(M_alpha)
+
+
+def angular_intensity(d: np.ndarray, M_alpha: np.ndarray) -> float:
+    """Eq. M1: ``mean δωᵀ (M_α,ωω)⁻¹ δω / 3`` over the windows (rad²/s³)."""
+    dw = d[:, DW_ST_T]
+    return float(np.mean(np.einsum("ni,ni->n", dw, np.linalg.solve(M_alpha[:, DW_ST_T, DW_ST_T], dw[..., None])[..., 0])) / 3.0)
+
+
+def filter_memory_s(q: float, r: float) -> float:
+    """Eq. M2: ``1/ω_n = (r/q)^{1/4}`` (s), the memory of the steady-state filter of eq. 2 (:mod:`estimators.process_noise`)."""
+    if not (q > 0 and r > 0):
+        raise ValueError(f"q, r: {q!r}, {r!r}: expected two intensities > 0")
+    return (float(r) / float(q)) ** 0.25
+
+
+def matched_angular(truth, r: float, *, resolution_s: float = 2.0) -> tuple[float, float]:
+    """Eqs. M1–M2: ``(q_α, H)`` with ``H = (r / q_α(H))^{1/4}``, by bisection on ``H`` between 10 s and a quarter of the truth.
+
+    ``q_α(H)`` grows with ``H`` (the model's errors grow faster than a random walk's once the unmodelled physics has moved
+    the truth off its torque-free trajectory), so ``H − (r / q_α(H))^{1/4}`` grows and has one root. Near an
+    intermediate-axis spin it grows by orders of magnitude within tens of seconds (SC2: 0.4 → 16× the ``σ`` budget's
+    intensity from 120 to 150 s), which an iteration of eq. M2 jumps across; bisection does not.
+    """
+    lo, hi = 10.0, float(truth.t[-1]) / 4.0
+    q_of = {}
+
+    def excess(H: float) -> float:
+        q_of[H] = angular_intensity(*prediction_errors(truth, H))
+        return H - filter_memory_s(q_of[H], r)
+
+    if excess(lo) >= 0.0 or excess(hi) <= 0.0:
+        raise RuntimeError(f"matched_angular: no horizon between {lo:g} and {hi:g} s is the filter's memory")
+    while hi - lo > resolution_s:
+        mid = round(0.5 * (lo + hi))
+        lo, hi = (mid, hi) if excess(mid) < 0.0 else (lo, mid)
+    return q_of[hi], hi
+
+
+def _axis_psd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided spectral density (Hann window, mean kept: a constant acceleration is a disturbance too), mean over the 3 axes."""
+    f, G = periodogram(a, fs=1.0 / BUDGET_DT_S, window="hann", detrend=False, axis=0)
+    return f, G.mean(axis=1)
+
+
+def matched_budget(scenarios: list[Scenario], physics: str | TruthPhysics = "perturbed", duration_s: float = MATCH_DURATION_S,
+                   pose_noise: PoseNoise = PoseNoise(), tau_s: float = BUDGET_DT_S) -> MatchedBudget:
+    """Steps 1–6 of the module docstring for each scenario; the largest intensity of each kind. Deterministic.
+
+    ``pose_noise``: the measurements the filter is matched to (its ``R``), every ``tau_s`` s.
+    """
+    physics = get_truth_physics(physics)
+    r_att, r_pos = pose_noise.R_attitude[0, 0] * tau_s, pose_noise.R_position[0, 0] * tau_s
+    q, horizons = np.zeros(3), []
+    for scenario in scenarios:
+        truth, angular_T, _, translational_T = unmodelled_accelerations(scenario, physics, duration_s)
+        q_alpha, H = matched_angular(truth, r_att)
+        q_k = matched_intensity(*_axis_psd(angular_T["dissipation"]), r_att) * kdot_from_dissipation(1.0, float(np.linalg.norm(scenario.w_T0_T_rad_s))) ** 2
+        q = np.maximum(q, [q_alpha, matched_intensity(*_axis_psd(sum(translational_T.values())), r_pos), q_k])
+        horizons.append(f"{scenario.name} {H:g} s")
+    return MatchedBudget(*map(float, q), source=f"matched_budget of the {physics.name} truth over {duration_s:g} s, horizons "
+                         f"{', '.join(horizons)}; R of {pose_noise} every {tau_s:g} s")
