@@ -103,8 +103,12 @@ def _relative_columns(data: _Data) -> tuple[np.ndarray, np.ndarray, int | None]:
 def _linear_solve(B: np.ndarray, data: _Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Linear parameters w ≥ 0 (m,), per-curve scales s (K,) and whitened residuals (N,) for the basis B (N, m) (module docstring)."""
     M = data.g[:, None] * B
-    y, sigma = data.y.copy(), data.sigma.copy()
     m = B.shape[1]
+    if m == 1 and not data.relative.any():  # one scale w ≥ 0 for calibrated curves: the NNLS below in closed form
+        a, b = M[:, 0] / data.sigma, data.y / data.sigma
+        w = np.array([max(float(a @ b), 0.0) / max(float(a @ a), np.finfo(float).tiny)])
+        return w, np.ones(data.relative.size), b - a * w[0]
+    y, sigma = data.y.copy(), data.sigma.copy()
     for _ in range(2):  # the second pass runs with the relative data on the model's scale
         scaled = _Data(data.t_s, data.sun_I, data.obs_I, y, sigma, data.g, data.curve, data.relative, data.epoch)
         cols, rhs, fixed = _relative_columns(scaled)
