@@ -431,7 +431,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule
         (2 by default: with the quarter-turn step the screening missed the true basin on 3 × 600 samples at 2 % noise).
     n_grid_samples : samples per curve used by the grid; screen_facets : normals of the screening model.
-    n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each (nights days
+    n_candidates : local minima of the pole map refined (known shape: twice as many minima of the coarse screen get the
+        full lattice around them, :func:`_known_screen`); n_periods_per_pole : period minima tried at each (nights days
         apart leave cycle-count aliases ≈ P²/T apart: each is refined and reported with its probability).
     axes_T : (n, 3) candidate body spin axes for a known shape (default the principal axes ±x, ±y, ±z).
     n_phases : phases of a known shape's screen (:mod:`.phase_screen`; the rate step follows, ``period_oversampling``
