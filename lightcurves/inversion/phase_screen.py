@@ -6,19 +6,20 @@ atlas-centaur) the convex screen led the refinement to a basin 119° off with χ
 This module screens with the known shape itself, cheaply, by separating the two time scales of the problem:
 
 * within one curve (an arc of half-length h) a rate error δω turns the phase by at most δω·h at the ends. The rate range is
-  cut into nodes ω_n so that |ω − ω_n|·h ≤ ``drift_tol_rad`` for every searched ω; on each node and at each pole p and body
-  axis a, the model is evaluated once for every phase φ_j of a uniform grid of ``n_phases`` at the curve's mid-time
-  t̄_k: φ(t_i) = φ_j + ω_n (t_i − t̄_k). Kept per (p, a, n, j): the sufficient statistics of the curve's linear fit,
-  S_yB = Σ g y B / σ² and S_BB = Σ (g B / σ)² (g the distance factor of :func:`lightcurves.render.observed_flux`);
+  cut into nodes ω_n so that |ω − ω_n|·h ≤ ``drift_tol_rad`` for every searched ω; at each pole p and body axis a, each
+  sample's brightness is tabulated once over the rotation phase (:func:`_curve_tables`) and read, for every node and every
+  phase φ_j of a uniform grid of ``n_phases`` at the curve's mid-time t̄_k, at φ(t_i) = φ_j + ω_n (t_i − t̄_k). Kept per
+  (p, a, n, j): the sufficient statistics of the curve's linear fit, S_yB = Σ g y B / σ² and S_BB = Σ (g B / σ)² (g the
+  distance factor of :func:`lightcurves.render.observed_flux`);
 * across curves only the phase at each mid-time matters: φ_k = φ₀ + ω t̄_k. For every (ω, φ₀) of the search grid the
-  statistics are read at φ_k (linear interpolation between grid phases), and the χ² follows in closed form: one
-  non-negative scale w shared by the calibrated curves, χ² = Σ S_yy − max(Σ S_yB, 0)² / Σ S_BB, plus, for each relative
-  curve, its own scale, χ²_k = S_yy,k − max(S_yB,k, 0)² / S_BB,k (the profiled likelihood of :mod:`.search`).
+  statistics are read at φ_k (cubic interpolation between grid phases, :func:`_fractional_tables`), and the χ² follows in
+  closed form: one non-negative scale w shared by the calibrated curves, χ² = Σ S_yy − max(Σ S_yB, 0)² / Σ S_BB, plus, for
+  each relative curve, its own scale, χ²_k = S_yy,k − max(S_yB,k, 0)² / S_BB,k (the profiled likelihood of :mod:`.search`).
 
-The cost is n_pole × n_axis × n_node × n_phase × n_sample model evaluations, independent of the number of rates; the
-combination over (ω, φ₀) is table look-ups. The same idea — tabulate a curve's brightness against phase once, then slide
-the tables against each other across rate trials — is the phase-dispersion principle of period searches (Stellingwerf,
-ApJ 224, 1978), here with the known shape's predicted curve in place of the data's own.
+The cost is n_pole × n_axis × n_table × n_sample model evaluations (n_table = n_phases for a curve with one node, twice
+that otherwise), independent of the number of rates and nodes; the combination over (ω, φ₀) is table look-ups. The same
+idea — tabulate a curve's brightness against phase once, then slide the tables against each other across rate trials — is
+the phase-dispersion principle of period searches (Stellingwerf, ApJ 224, 1978), here with the known shape's predicted curve in place of the data's own.
 """
 
 from __future__ import annotations
