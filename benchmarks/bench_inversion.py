@@ -54,7 +54,9 @@ Sizes (:data:`SIZES`, chosen by ``$LCNAV_BENCH_INVERSION_SIZE``): "full" is the 
 "smoke" a few objects. ``$LCNAV_BENCH_INVERSION_BUDGET_S`` stops starting objects after that many
 seconds (the kinds are interleaved, so every kind is measured); the section says how many were left out.
 
-Times are wall-clock on a shared machine (the load average is printed); nothing here is asserted.
+Timing (:func:`timing_table`): ``Size.n_timing`` extra facet objects of exactly 3 nights × :data:`TIMING_SAMPLES` samples
+(the issue's ≤ 10 s case), from their own random stream, timed wall-clock and CPU (all threads of the process) with the
+1-min load average at their start. Times are measured on a shared machine; nothing here is asserted.
 """
 
 from __future__ import annotations
@@ -94,17 +96,21 @@ class Size:
     samples_per_night: int
     mitsuba_samples_per_night: int
     brute_samples: int
+    n_timing: int = 0  #: facet objects of 3 nights × TIMING_SAMPLES, timed (the issue's speed case, whatever the size)
 
 
 SIZES = {
-    "full": Size(200, 20, 10, 600, 150, 100),  #: the issue's benchmark
-    "reduced": Size(200, 20, 10, 150, 100, 60),  #: the same draws at fewer samples, for a loaded machine (with a budget)
-    "smoke": Size(4, 1, 1, 60, 40, 40),  #: a few minutes: does the pipeline run end to end
+    "full": Size(200, 20, 10, 600, 150, 100, 6),  #: the issue's benchmark
+    "reduced": Size(200, 20, 10, 150, 100, 60, 6),  #: the same draws at fewer samples, for a loaded machine (with a budget)
+    "smoke": Size(4, 1, 1, 60, 40, 40, 1),  #: a few minutes: does the pipeline run end to end
 }
 SIZE_ENV = "LCNAV_BENCH_INVERSION_SIZE"  #: name of a key of SIZES (default "full")
 BUDGET_ENV = "LCNAV_BENCH_INVERSION_BUDGET_S"  #: wall-clock budget, s: no object is started after it (default: none)
 MITSUBA_NIGHTS = 3
 BRUTE_TARGETS = ("atlas-centaur",)  #: the cheapest facet model (384 facets, 2 µs per sample): the grid evaluates it ~10⁷ times per object
+TIMING_TARGETS = ("atlas-centaur", "box-wing", "vespa")  #: the timing objects cycle over these
+TIMING_SEED = 28  #: the timing objects' own stream (drawn and simulated from it: the other kinds' draws do not change with their number)
+TIMING_SAMPLES = 600  #: samples per night of the timing objects (3 nights: the issue's ≤ 10 s case)
 BRUTE_POLE_STEP_DEG = 8.0  #: spacing of the brute-force pole lattice
 BRUTE_PHASE_STEPS = 72  #: rotation phases tabulated per (pole, axis), linearly interpolated (5° steps)
 MAX_NIGHTS = 5
@@ -340,13 +346,15 @@ def run_object(case: Case, model: KnownShapeModel, renderer, rng: np.random.Gene
     """Simulate, invert (known shape) and score one object; the row also has the geometry and the inversion's time."""
     curves, truth, synodic = simulate_case(case, renderer, rng)
     period_range = _period_range(synodic, rng)
-    t0 = time.perf_counter()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    t0, c0 = time.perf_counter(), time.process_time()
     result = invert(curves, model, period_range, rng=rng)
-    elapsed = time.perf_counter() - t0
+    elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
     alpha = np.concatenate([c.phase_angle_rad for c in curves])
     row = {"target": case.target, "axis_kind": axis_kind(get_target(case.target).J_diag, case.axis_T), "nights": len(curves),
            "samples": int(sum(len(c) for c in curves)),
-           "span_deg": float(np.degrees(np.ptp(alpha))), "time_s": elapsed, "truth_in_range": period_range[0] <= truth.period_s <= period_range[1]}
+           "span_deg": float(np.degrees(np.ptp(alpha))), "time_s": elapsed, "cpu_s": cpu, "load": load,
+           "truth_in_range": period_range[0] <= truth.period_s <= period_range[1]}
     row.update(score(result, truth, curves, model, rng))
     J = get_target(case.target).J_diag
     moment = [float(a**2 @ J) for a in (result.best.state.axis_T, truth.axis_T)]  # aᵀ diag(J) a, kg m²
@@ -452,17 +460,19 @@ def schedule(rng: np.random.Generator, size: Size) -> list[tuple[str, Case]]:
     shaped = tuple(n for n in TARGETS if n != "sphere")  # the sphere's spin is invisible: one object in ten, facet rows only
     jobs = {"facet": _drawn_objects(rng, size.n_facet, shaped * 3 + ("sphere",), None, size.samples_per_night),
             "mitsuba": _drawn_objects(rng, size.n_mitsuba, shaped, MITSUBA_NIGHTS, size.mitsuba_samples_per_night),
-            "brute": [dataclasses.replace(c, night_days=(0,)) for c in _drawn_objects(rng, size.n_brute, BRUTE_TARGETS, 1, size.brute_samples)]}
+            "brute": [dataclasses.replace(c, night_days=(0,)) for c in _drawn_objects(rng, size.n_brute, BRUTE_TARGETS, 1, size.brute_samples)],
+            "timing": _drawn_objects(np.random.default_rng(TIMING_SEED), size.n_timing, TIMING_TARGETS, 3, TIMING_SAMPLES)}
     order = {kind: j for j, kind in enumerate(jobs)}
     keyed = [(i / len(cases), order[kind], kind, case) for kind, cases in jobs.items() for i, case in enumerate(cases)]
     return [(kind, case) for _, _, kind, case in sorted(keyed, key=lambda k: k[:2])]
 
 
 def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, log=print) -> tuple[dict, int]:
-    """Rows ``facet``, ``mitsuba`` (:func:`run_object`) and ``brute`` (:func:`run_brute`), and the number of scheduled objects not run
-    because the wall-clock ``budget_s`` ran out."""
+    """Rows ``facet``, ``mitsuba``, ``timing`` (:func:`run_object`) and ``brute`` (:func:`run_brute`), and the number of scheduled
+    objects not run because the wall-clock ``budget_s`` ran out."""
     models = _models(TARGETS)
-    rows = {"facet": [], "mitsuba": [], "brute": []}
+    timing_rng = np.random.default_rng(TIMING_SEED + 1)
+    rows = {"facet": [], "mitsuba": [], "brute": [], "timing": []}
     jobs = schedule(rng, size)
     t0 = time.perf_counter()
     for j, (kind, case) in enumerate(jobs):
@@ -472,8 +482,8 @@ def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, l
         if kind == "brute":
             rows[kind].append(_safe(run_brute, case, model, rng))
         else:
-            renderer = FacetRenderer(model) if kind == "facet" else UnresolvedRenderer(get_target(case.target))
-            rows[kind].append(_safe(run_object, case, model, renderer, rng))
+            renderer = UnresolvedRenderer(get_target(case.target)) if kind == "mitsuba" else FacetRenderer(model)
+            rows[kind].append(_safe(run_object, case, model, renderer, timing_rng if kind == "timing" else rng))
         log(f"[inversion] {j + 1}/{len(jobs)} {kind} {_brief(rows[kind][-1])} ({time.perf_counter() - t0:.0f} s)")
     return rows, 0
 
@@ -585,13 +595,29 @@ def target_table(rows: list[dict]) -> str:
 
 
 def time_line(rows: list[dict]) -> str:
-    """Inversion time per object for 3 nights (3 × the size's samples per night)."""
-    t = np.array([r["time_s"] for r in rows if r["nights"] == 3])
-    if t.size == 0:
+    """Inversion time per object for 3 nights (3 × the size's samples per night): wall and CPU (all threads), median and max,
+    with the 1-min load average at each object's start."""
+    sel = [r for r in rows if r["nights"] == 3]
+    if not sel:
         return "No 3-night object measured."
-    samples = np.median([r["samples"] for r in rows if r["nights"] == 3])
-    return (f"Time per object, 3 nights (median {samples:.0f} samples): median {np.median(t):.1f} s, max {t.max():.1f} s over {t.size} objects "
-            f"(wall clock on the shared machine; requirement ≤ 10 s: **{'met' if np.median(t) <= 10 else 'not met'}** at the median).")
+    t, cpu, load = (np.array([r.get(k, np.nan) for r in sel]) for k in ("time_s", "cpu_s", "load"))
+    samples = np.median([r["samples"] for r in sel])
+    return (f"Time per object, 3 nights (median {samples:.0f} samples), {t.size} objects: wall median {np.median(t):.1f} s, max {t.max():.1f} s; "
+            f"CPU median {np.median(cpu):.1f} s, max {cpu.max():.1f} s; load average {np.min(load):.1f}–{np.max(load):.1f} "
+            f"(2 cores shared; requirement ≤ 10 s wall: **{'met' if np.median(t) <= 10 else 'not met'}** at the median).")
+
+
+def timing_table(rows: list[dict]) -> str:
+    """The issue's timing case: one row per 3-night × ``TIMING_SAMPLES``-sample facet object (:data:`TIMING_TARGETS`), then
+    :func:`time_line` over them."""
+    lines = ["| target | samples | wall (s) | CPU (s) | load | pole error (°) | \\|ΔP/P\\| | Δχ²(truth − best) |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['target']} | error: {r['error']} |" + " |" * 6)
+            continue
+        lines.append(f"| {r['target']} | {r['samples']} | {r['time_s']:.1f} | {r['cpu_s']:.1f} | {r['load']:.1f} | {r['pole_err_deg']:.2f} | "
+                     f"{abs(r['period_rel_err']):.1e} | {r['dchi2_truth']:.1f} |")
+    return "\n".join(lines + ["", time_line(_ok(rows))])
 
 
 def brute_table(rows: list[dict]) -> str:
@@ -639,6 +665,8 @@ def report(rows: dict, size: Size, header: str) -> str:
                   f"{np.median([r['pole_sigma_deg'] for r in sphere]):.0f}°, truth in the best mode's 95 % region "
                   f"{sum(r['in95_pole'] for r in sphere)}/{len(sphere)}, "
                   f"in the mixture's 95 % region {sum(r['mix_level_pole'] <= 0.95 for r in sphere)}/{len(sphere)}.", ""]
+    parts += [f"### Timing: 3 nights × {TIMING_SAMPLES} samples, facet-rendered ({', '.join(TIMING_TARGETS)}; full models)", "",
+              timing_table(rows["timing"]), ""]
     parts += [f"### Brute force: a dense grid of the same likelihood (one night of ~{size.brute_samples} samples)", "", brute_table(rows["brute"]), "",
               _errors(rows)]
     return "\n".join(parts)

@@ -6,19 +6,20 @@ atlas-centaur) the convex screen led the refinement to a basin 119° off with χ
 This module screens with the known shape itself, cheaply, by separating the two time scales of the problem:
 
 * within one curve (an arc of half-length h) a rate error δω turns the phase by at most δω·h at the ends. The rate range is
-  cut into nodes ω_n so that |ω − ω_n|·h ≤ ``drift_tol_rad`` for every searched ω; on each node and at each pole p and body
-  axis a, the model is evaluated once for every phase φ_j of a uniform grid of ``n_phases`` at the curve's mid-time
-  t̄_k: φ(t_i) = φ_j + ω_n (t_i − t̄_k). Kept per (p, a, n, j): the sufficient statistics of the curve's linear fit,
-  S_yB = Σ g y B / σ² and S_BB = Σ (g B / σ)² (g the distance factor of :func:`lightcurves.render.observed_flux`);
+  cut into nodes ω_n so that |ω − ω_n|·h ≤ ``drift_tol_rad`` for every searched ω; at each pole p and body axis a, each
+  sample's brightness is tabulated once over the rotation phase (:func:`_curve_tables`) and read, for every node and every
+  phase φ_j of a uniform grid of ``n_phases`` at the curve's mid-time t̄_k, at φ(t_i) = φ_j + ω_n (t_i − t̄_k). Kept per
+  (p, a, n, j): the sufficient statistics of the curve's linear fit, S_yB = Σ g y B / σ² and S_BB = Σ (g B / σ)² (g the
+  distance factor of :func:`lightcurves.render.observed_flux`);
 * across curves only the phase at each mid-time matters: φ_k = φ₀ + ω t̄_k. For every (ω, φ₀) of the search grid the
-  statistics are read at φ_k (linear interpolation between grid phases), and the χ² follows in closed form: one
-  non-negative scale w shared by the calibrated curves, χ² = Σ S_yy − max(Σ S_yB, 0)² / Σ S_BB, plus, for each relative
-  curve, its own scale, χ²_k = S_yy,k − max(S_yB,k, 0)² / S_BB,k (the profiled likelihood of :mod:`.search`).
+  statistics are read at φ_k (cubic interpolation between grid phases, :func:`_fractional_tables`), and the χ² follows in
+  closed form: one non-negative scale w shared by the calibrated curves, χ² = Σ S_yy − max(Σ S_yB, 0)² / Σ S_BB, plus, for
+  each relative curve, its own scale, χ²_k = S_yy,k − max(S_yB,k, 0)² / S_BB,k (the profiled likelihood of :mod:`.search`).
 
-The cost is n_pole × n_axis × n_node × n_phase × n_sample model evaluations, independent of the number of rates; the
-combination over (ω, φ₀) is table look-ups. The same idea — tabulate a curve's brightness against phase once, then slide
-the tables against each other across rate trials — is the phase-dispersion principle of period searches (Stellingwerf,
-ApJ 224, 1978), here with the known shape's predicted curve in place of the data's own.
+The cost is n_pole × n_axis × n_table × n_sample model evaluations (n_table = n_phases for a curve with one node, twice
+that otherwise), independent of the number of rates and nodes; the combination over (ω, φ₀) is table look-ups. The same
+idea — tabulate a curve's brightness against phase once, then slide the tables against each other across rate trials — is
+the phase-dispersion principle of period searches (Stellingwerf, ApJ 224, 1978), here with the known shape's predicted curve in place of the data's own.
 """
 
 from __future__ import annotations
@@ -56,54 +57,122 @@ def rate_nodes(omegas: np.ndarray, half_span_s: float, drift_tol_rad: float) -> 
     return nodes, np.clip(np.round((omegas - lo) / (hi - lo) * n - 0.5).astype(int), 0, n - 1) if hi > lo else np.zeros(omegas.size, int)
 
 
-def _curve_tables(model, sun_I, obs_I, t_c, weight_y, weight_B, C_IP, C_TA, nodes, phases) -> tuple[np.ndarray, np.ndarray]:
-    """(S_yB, S_BB), each (n_a, n_p, n_node, M), of one curve for a batch of pole frames C_IP (n_p, 3, 3) (module docstring)."""
+def _curve_tables(model, sun_I, obs_I, t_c, weight_y, weight_B, C_IP, C_TA, nodes, phases, n_table) -> tuple[np.ndarray, np.ndarray]:
+    """(S_yB, S_BB), each (n_a, n_p, n_node, M), of one curve for a batch of pole frames C_IP (n_p, 3, 3) (module docstring).
+
+    The model is evaluated once per sample on a table of ``n_table`` phases ψ_l + ω̄ t_i (ω̄ the middle node); every (node,
+    grid phase) then reads it (:func:`_node_sums`), so the cost in model evaluations does not grow with the number of nodes.
+    With one node and ``n_table`` = M every read falls on the table: the sums are exact.
+    """
     s_P = np.einsum("ni,pij->pnj", sun_I, C_IP)
     o_P = np.einsum("ni,pij->pnj", obs_I, C_IP)
     n_a, n_p, M = C_TA.shape[0], C_IP.shape[0], phases.size
+    omega_ref = nodes[nodes.size // 2]
+    psi = np.arange(n_table)[:, None] * (2 * np.pi / n_table) + omega_ref * t_c[None, :]  # (L, N)
+    shape = (n_p, n_table) + s_P.shape[1:]
+    s = unspin(psi, np.broadcast_to(s_P[:, None], shape))  # (n_p, L, N, 3)
+    o = unspin(psi, np.broadcast_to(o_P[:, None], shape))
     S_yB = np.empty((n_a, n_p, nodes.size, M))
     S_BB = np.empty_like(S_yB)
-    for n, omega in enumerate(nodes):
-        phi = phases[:, None] + omega * t_c[None, :]  # (M, N)
-        shape = (n_p, M) + s_P.shape[1:]
-        s = unspin(phi, np.broadcast_to(s_P[:, None], shape))  # (n_p, M, N, 3)
-        o = unspin(phi, np.broadcast_to(o_P[:, None], shape))
-        for a in range(n_a):
-            B = model.basis((s @ C_TA[a].T).reshape(-1, 3), (o @ C_TA[a].T).reshape(-1, 3))[:, 0].reshape(n_p, M, -1)
-            S_yB[a, :, n] = B @ weight_y
-            S_BB[a, :, n] = (B * B) @ weight_B
+    for a in range(n_a):
+        B = model.basis((s @ C_TA[a].T).reshape(-1, 3), (o @ C_TA[a].T).reshape(-1, 3))[:, 0].reshape(n_p, n_table, -1)
+        _node_sums(np.ascontiguousarray(B.transpose(0, 2, 1)), phases, nodes - omega_ref, t_c, weight_y, weight_B, S_yB[a], S_BB[a])
     return S_yB, S_BB
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
+def _node_sums(table, phases, offsets, t_c, weight_y, weight_B, S_yB, S_BB):  # pragma: no cover - compiled
+    """S_yB[p, n, j] = Σ_i wy_i b_i(φ_j + ω_n t_i), S_BB likewise with wB_i b_i², b_i read from ``table`` (n_p, N, L) of the
+    brightness at the L uniform phases ψ_l + ω̄ t_i (``offsets`` = ω_n − ω̄) by the Catmull–Rom cubic
+    (error O(Δψ³) for a smooth curve; Keys, IEEE TASSP 29, 1981).
+
+    Numba, the poles shared among the cores: (n_node × M × N) reads per pole, which numpy would gather as (n_p, n_node, M, N) arrays.
+    """
+    n_p, N, L = table.shape
+    step = L / (2.0 * np.pi)
+    for p in numba.prange(n_p):
+        for n in range(offsets.size):
+            for j in range(phases.size):
+                yb, bb = 0.0, 0.0
+                for i in range(N):
+                    x = (phases[j] + offsets[n] * t_c[i]) * step
+                    k = np.floor(x)
+                    f = x - k
+                    k0 = int(k) % L
+                    b = (0.5 * f * (f * (2.0 - f) - 1.0) * table[p, i, (k0 - 1) % L] + 0.5 * (f * f * (3.0 * f - 5.0) + 2.0) * table[p, i, k0]
+                         + 0.5 * f * (f * (4.0 - 3.0 * f) + 1.0) * table[p, i, (k0 + 1) % L] + 0.5 * f * f * (f - 1.0) * table[p, i, (k0 + 2) % L])
+                    yb += weight_y[i] * b
+                    bb += weight_B[i] * b * b
+                S_yB[p, n, j] = yb
+                S_BB[p, n, j] = bb
+
+
+#: sub-steps of a grid phase at which the curves' statistics are pre-interpolated (:func:`_fractional_tables`): each curve's
+#: mid-time phase is read at the nearest 1/N_FRAC of a step, an error ≤ 2π/(2 · N_FRAC · n_phases) (0.47° at 48 phases)
+N_FRAC = 8
+
+
+@numba.njit(cache=True, parallel=True)
+def _fractional_tables(S_yB, S_BB, S_yy, n_frac):  # pragma: no cover - compiled
+    """R (K, n_a, n_p, n_node, n_frac, M, 2): (S_yB, S_BB) at the phases i + q/n_frac grid steps, q = 0 … n_frac − 1.
+
+    Catmull–Rom cubic through the four nearest grid phases (linear interpolation doubled the screen's χ² at the truth).
+    Exact statistics obey Cauchy–Schwarz, S_yB² ≤ S_yy S_BB (so χ² ≥ 0). The cubic can undershoot S_BB next to a glint
+    (a sharp peak of S_BB in phase) and break it: S_yB²/S_BB then exceeds S_yy by orders of magnitude (measured χ² down to
+    −2.7e10 on a 3-night atlas-centaur case, which led the search 42° off). There the two nearest grid phases are
+    interpolated linearly instead: a convex combination keeps the inequality (√ is concave).
+    """
+    K, n_a, n_p, n_node, M = S_yB.shape
+    R = np.empty((K, n_a, n_p, n_node, n_frac, M, 2))
+    for p in numba.prange(n_p):
+        for k in range(K):
+            for a in range(n_a):
+                for n in range(n_node):
+                    for q in range(n_frac):
+                        f = q / n_frac
+                        c0, c1 = 0.5 * f * (f * (2.0 - f) - 1.0), 0.5 * (f * f * (3.0 * f - 5.0) + 2.0)
+                        c2, c3 = 0.5 * f * (f * (4.0 - 3.0 * f) + 1.0), 0.5 * f * f * (f - 1.0)
+                        for i in range(M):
+                            im, i1, i2 = (i - 1) % M, (i + 1) % M, (i + 2) % M
+                            yb = c0 * S_yB[k, a, p, n, im] + c1 * S_yB[k, a, p, n, i] + c2 * S_yB[k, a, p, n, i1] + c3 * S_yB[k, a, p, n, i2]
+                            bb = c0 * S_BB[k, a, p, n, im] + c1 * S_BB[k, a, p, n, i] + c2 * S_BB[k, a, p, n, i1] + c3 * S_BB[k, a, p, n, i2]
+                            if bb <= 0.0 or yb * yb > S_yy[k] * bb:
+                                yb = (1.0 - f) * S_yB[k, a, p, n, i] + f * S_yB[k, a, p, n, i1]
+                                bb = (1.0 - f) * S_BB[k, a, p, n, i] + f * S_BB[k, a, p, n, i1]
+                            R[k, a, p, n, q, i, 0] = yb
+                            R[k, a, p, n, q, i, 1] = bb
+    return R
+
+
+@numba.njit(cache=True, parallel=True)
 def _combine(S_yB, S_BB, S_yy, relative, node_of, shift, chi2, best):  # pragma: no cover - compiled
     """Min over (axis, φ₀) of the χ² of the module docstring, for every (pole, rate) of one batch.
 
     S_yB, S_BB : (K, n_a, n_p, n_node, M) the curves' tables; S_yy (K,); relative (K,) bool; node_of (K, n_ω) the node of
-    each rate; shift (K, n_ω) the curve's mid-time phase ω t̄_k in grid steps, in [0, M). Out: chi2 (n_p, n_ω) and best
-    (n_p, n_ω) = axis · M + phase index. Numba: the numpy form gathered (n_a, n_p, n_ω, M) arrays four times per curve.
+    each rate; shift (K, n_ω) the curve's mid-time phase ω t̄_k in grid steps, in [0, M), read at the nearest 1/N_FRAC step
+    (:func:`_fractional_tables`). Out: chi2 (n_p, n_ω) and best (n_p, n_ω) = axis · M + phase index. Numba, the poles shared
+    among the cores (``prange``): the numpy form gathered (n_a, n_p, n_ω, M) arrays four times per curve.
     """
     K, n_a, n_p, _, M = S_yB.shape
     n_w = node_of.shape[1]
+    R = _fractional_tables(S_yB, S_BB, S_yy, N_FRAC)
     cal_yy = 0.0
     for k in range(K):
         if not relative[k]:
             cal_yy += S_yy[k]
-    base = np.empty(K, np.int64)
-    coef = np.empty((K, 4))
+    base = np.empty((n_w, K), np.int64)
+    sub = np.empty((n_w, K), np.int64)
     for w in range(n_w):
-        for k in range(K):  # the fractional part of the shift is the same at every grid phase j
-            i = int(shift[k, w])
-            f = shift[k, w] - i
-            base[k] = i
-            # Catmull-Rom cubic through the four nearest grid phases (linear interpolation doubled the screen's χ² at the truth)
-            coef[k, 0], coef[k, 1] = 0.5 * f * (f * (2.0 - f) - 1.0), 0.5 * (f * f * (3.0 * f - 5.0) + 2.0)
-            coef[k, 2], coef[k, 3] = 0.5 * f * (f * (4.0 - 3.0 * f) + 1.0), 0.5 * f * f * (f - 1.0)
-        for p in range(n_p):
+        for k in range(K):
+            x = int(np.round(shift[k, w] * N_FRAC))
+            base[w, k] = (x // N_FRAC) % M
+            sub[w, k] = x % N_FRAC
+    for p in numba.prange(n_p):
+        for w in range(n_w):
             lowest, arg = np.inf, -1
             for a in range(n_a):
                 for j in range(M):
-                    c2 = _chi2_at(S_yB, S_BB, S_yy, relative, cal_yy, node_of[:, w], base, coef, a, p, j)
+                    c2 = _chi2_at(R, S_yy, relative, cal_yy, node_of[:, w], base[w], sub[w], a, p, j)
                     if c2 < lowest:
                         lowest, arg = c2, a * M + j
             chi2[p, w] = lowest
@@ -111,16 +180,14 @@ def _combine(S_yB, S_BB, S_yy, relative, node_of, shift, chi2, best):  # pragma:
 
 
 @numba.njit(cache=True, inline="always")
-def _chi2_at(S_yB, S_BB, S_yy, relative, cal_yy, node, base, coef, a, p, j):  # pragma: no cover - compiled
-    """χ² (module docstring) at axis a, pole p and grid phase j, each curve's statistics read by the cubic ``coef`` from ``base + j``."""
-    M = S_yB.shape[4]
+def _chi2_at(R, S_yy, relative, cal_yy, node, base, sub, a, p, j):  # pragma: no cover - compiled
+    """χ² (module docstring) at axis a, pole p and grid phase j, curve k's statistics read from ``R`` (:func:`_fractional_tables`)
+    at node ``node[k]``, sub-step ``sub[k]`` and grid phase ``base[k] + j``."""
+    M = R.shape[5]
     yb_c, bb_c, c2 = 0.0, 0.0, cal_yy
-    for k in range(S_yB.shape[0]):
-        yb, bb = 0.0, 0.0
-        for q in range(4):
-            i = (base[k] + j + q - 1) % M
-            yb += coef[k, q] * S_yB[k, a, p, node[k], i]
-            bb += coef[k, q] * S_BB[k, a, p, node[k], i]
+    for k in range(R.shape[0]):
+        i = (base[k] + j) % M
+        yb, bb = R[k, a, p, node[k], sub[k], i, 0], R[k, a, p, node[k], sub[k], i, 1]
         if relative[k]:
             c2 += S_yy[k] - (yb * yb / bb if yb > 0.0 and bb > 0.0 else 0.0)
         else:
@@ -132,17 +199,21 @@ def _chi2_at(S_yB, S_BB, S_yy, relative, cal_yy, node, base, coef, a, p, j):  # 
 
 
 def screen_phases(data, model, poles_I: np.ndarray, axes_T: np.ndarray, omegas: np.ndarray, *, n_phases: int = 48,
-                  drift_tol_rad: float = 0.1, batch: int = 16, progress=None) -> PhaseScreen:
+                  drift_tol_rad: float = 0.1, n_table: int | None = None, batch: int = 16, progress=None) -> PhaseScreen:
     """Screening χ² of a known shape (``model.basis`` with one column) over poles × axes × rates × phases (module docstring).
 
     data : the stacked curves of :mod:`.search` (``t_s``, ``sun_I``, ``obs_I``, ``y``, ``sigma``, ``g``, ``curve``, ``relative``).
     poles_I : (n_p, 3) unit poles; axes_T : (n_a, 3) unit body spin axes; omegas : (n_ω,) sidereal rates, rad/s (their step
     should turn the phase at the curves' mid-times by at most one phase step, 2π/n_phases: the screen is read there only).
+    n_table : phases of each sample's brightness table (:func:`_curve_tables`; default n_phases for a curve with one rate
+    node, where the table is then exact, 2 n_phases otherwise).
     progress : called as ``progress(n_done, n_total)`` over pole batches.
     """
     if int(n_phases) < 4:
         raise ValueError(f"n_phases: {n_phases}: expected an integer >= 4")
     M = int(n_phases)
+    if n_table is not None and int(n_table) < 4:
+        raise ValueError(f"n_table: {n_table}: expected an integer >= 4")
     phases = np.arange(M) * 2 * np.pi / M
     C_TA = np.stack([axis_frame(a) for a in np.atleast_2d(axes_T)])
     K = data.relative.size
@@ -165,8 +236,9 @@ def screen_phases(data, model, poles_I: np.ndarray, axes_T: np.ndarray, omegas: 
         S_yB = np.zeros((K, C_TA.shape[0], C_IP.shape[0], n_nodes, M))
         S_BB = np.ones_like(S_yB)
         for k, (i, t_c, nodes, wy, wB) in enumerate(curves):
+            L = (M if nodes.size == 1 else 2 * M) if n_table is None else int(n_table)
             S_yB[k, :, :, :nodes.size], S_BB[k, :, :, :nodes.size] = _curve_tables(model, data.sun_I[i], data.obs_I[i], t_c, wy, wB, C_IP,
-                                                                                   C_TA, nodes, phases)
+                                                                                   C_TA, nodes, phases, L)
         _combine(S_yB, S_BB, S_yy, data.relative, node_of, shift, chi2[lo:lo + batch], best[lo:lo + batch])
         if progress is not None:
             progress(min(lo + batch, n_p), n_p)

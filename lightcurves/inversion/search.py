@@ -21,15 +21,17 @@ the shape's).
      over all poles): a convex model absorbs the rotational phase and the body axis, so the grid has only pole and period.
    * Known shape (``basis`` has one column): the shape itself (its ``coarse(screen_known_facets)`` copy) over
      pole × body axis (``axes_T``) × rate × phase (``n_phases``), from per-curve phase tables (:mod:`.phase_screen`),
-     the rate step refined so that the phase at the span's ends moves by at most one phase step. A convex stand-in
+     the rate step refined so that the phase at the span's ends moves by at most one phase step; the poles coarse to fine
+     (:func:`_known_screen`: a lattice at twice the spacing, then the full lattice around its best minima). A convex stand-in
      ranks poles by another likelihood: on the SC3 seed-1 campaign it led the refinement 119° off (χ² 1.98e5, the
      truth's 5.85e4).
 2. For a known shape, at each candidate pole: a fit from the screen's (rate, phase, axis), then brief fits at
    the ``n_aliases`` best rate minima of that pole (cycle-count aliases between nights, which the screen cannot rank),
-   and the ``n_periods_per_pole`` best of those go on.
+   and the ``n_periods_per_pole`` best of those go on, to a fit with the full model on the refinement subsample if
+   within :data:`REFINE_REACH` (scaled Δχ²) of the best of all poles.
 3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
    reflective) with the full model, first on ``n_refine_samples`` per curve, then — once per distinct
-   optimum — on all data, in the rotation-vector increment of the pole frame,
+   optimum within :data:`REFINE_REACH` of the best — on all data, in the rotation-vector increment of the pole frame,
    the rate, and for a known shape the body axis; covariances from the Gauss–Newton Hessian of the
    profiled residuals; modes merged and weighted in :mod:`.posterior`.
 """
@@ -48,7 +50,7 @@ from scipy.spatial.transform import Rotation
 
 from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
 from lightcurves.inversion.data import InversionCurve
-from lightcurves.inversion.phase_screen import screen_phases
+from lightcurves.inversion.phase_screen import PhaseScreen, screen_phases
 from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
@@ -101,8 +103,12 @@ def _relative_columns(data: _Data) -> tuple[np.ndarray, np.ndarray, int | None]:
 def _linear_solve(B: np.ndarray, data: _Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Linear parameters w ≥ 0 (m,), per-curve scales s (K,) and whitened residuals (N,) for the basis B (N, m) (module docstring)."""
     M = data.g[:, None] * B
-    y, sigma = data.y.copy(), data.sigma.copy()
     m = B.shape[1]
+    if m == 1 and not data.relative.any():  # one scale w ≥ 0 for calibrated curves: the NNLS below in closed form
+        a, b = M[:, 0] / data.sigma, data.y / data.sigma
+        w = np.array([max(float(a @ b), 0.0) / max(float(a @ a), np.finfo(float).tiny)])
+        return w, np.ones(data.relative.size), b - a * w[0]
+    y, sigma = data.y.copy(), data.sigma.copy()
     for _ in range(2):  # the second pass runs with the relative data on the model's scale
         scaled = _Data(data.t_s, data.sun_I, data.obs_I, y, sigma, data.g, data.curve, data.relative, data.epoch)
         cols, rhs, fixed = _relative_columns(scaled)
@@ -267,6 +273,31 @@ def _screen(data: _Data, model, poles_I: np.ndarray, omegas: np.ndarray, progres
     return out
 
 
+def _known_screen(grid: _Data, model, poles: np.ndarray, turn: np.ndarray, axes, omegas, n_phases: int, n_seeds: int, progress
+                  ) -> tuple[np.ndarray, PhaseScreen]:
+    """The known-shape screen (:mod:`.phase_screen`) coarse to fine in pole: (poles (n, 3), their screen).
+
+    First a Fibonacci lattice of a quarter of ``poles`` (twice the spacing, turned by the same ``turn``), then the
+    lattice ``poles`` within one coarse spacing of the ``n_seeds`` best local minima of the coarse map; both sets are
+    returned. The screen's cost is linear in the number of poles (about 0.4 of the full lattice's at 7.5° and 6 candidates).
+    Measured against the full lattice: the same basin on a 3 × 600-sample atlas-centaur object (optima 0.01° apart, Δχ² 1.3
+    of 1860) and the same optimum on the SC3 seed-1 campaign (pole 0.89° off, χ² 56186). ``progress(fraction)`` over both stages.
+    """
+    n_fine = poles.shape[0]
+    coarse = fibonacci_sphere(max(n_fine // 4, 12)) @ turn.T
+    first = screen_phases(grid, model, coarse, axes, omegas, n_phases=n_phases,
+                          progress=None if progress is None else (lambda j, n: progress(0.5 * j / n)))
+    spacing = np.sqrt(4 * np.pi / coarse.shape[0])  # rad
+    seeds = coarse[_local_minima(coarse, first.chi2.min(axis=1))[:n_seeds]]
+    near = cKDTree(poles).query_ball_point(seeds, 2 * np.sin(spacing / 2))
+    fine = poles[np.unique(np.concatenate([np.asarray(i, dtype=int) for i in near]))] if len(seeds) else np.zeros((0, 3))
+    second = screen_phases(grid, model, fine, axes, omegas, n_phases=n_phases,
+                           progress=None if progress is None else (lambda j, n: progress(0.5 + 0.5 * j / n)))
+    if progress is not None and not len(fine):
+        progress(1.0)
+    return np.vstack([coarse, fine]), PhaseScreen(*(np.concatenate([getattr(first, f), getattr(second, f)]) for f in ("chi2", "axis_index", "phase_rad")))
+
+
 def _local_minima(poles_I: np.ndarray, values: np.ndarray, k: int = 7) -> np.ndarray:
     """Indices of poles whose value is ≤ that of their k − 1 nearest neighbours, by increasing value."""
     _, nb = cKDTree(poles_I).query(poles_I, k=k)
@@ -296,17 +327,17 @@ def _same_optimum(a: _Problem, b: _Problem) -> bool:
             and a.C_TA0[:, 2] @ b.C_TA0[:, 2] > np.cos(np.radians(1.0)))
 
 
-def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int,
-                  n_aliases: int) -> list[tuple[float, _Problem]]:
-    """Fits (χ², problem) on the subsample ``sub`` at one screened pole of a known shape, over its period aliases.
+def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
+    """The ``n_periods`` best fits (χ², problem) of the screen's model on its samples ``grid`` at one screened pole of a known
+    shape, over its period aliases; :func:`invert` fits those within reach of the best of all poles with the full model.
 
     Nights days apart leave cycle-count aliases of the rate (ω and ω + 2π n/Δt give the same phase at every night's
     mid-time) that the screen, with one rate node per night, cannot rank: they differ only by the phase drift within
     each night, which the pole and phase absorb in part. So: fit from the screen's best (rate, phase, axis) of this
     pole with the screen's model on its samples ``grid``; from that fit's pole, epoch phase and axis, fit again briefly
     (``8 n`` evaluations) at the ``n_aliases`` best local minima of the screen's χ²(ω) ``row`` — every stride-th of
-    them (8 in all), then the neighbours of the best — and fit the ``n_periods`` best with the full ``model`` on ``sub``.
-    (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs 5.9e4.)
+    them (8 in all), then the neighbours of the best. (SC3 seed 1: one start per pole ended on an alias 0.6 % off with
+    χ² 9.4e4 vs 5.9e4.)
     """
     iw = int(np.argmin(row))
     start = pole_frame(pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase_rad[iw]]).as_matrix()
@@ -325,11 +356,26 @@ def _known_starts(grid: _Data, sub: _Data, model, screen_model, pole_I, omegas, 
             tried[jw] = True
             fit, chi2 = _fit(_Problem(grid, screen_model, first.C_IP0, aliases[jw], first.C_TA0, True, True), 48)
             trials.append((chi2, fit))
-    out = []
-    for _, trial in sorted(trials, key=lambda t: t[0])[:n_periods]:
-        fit, chi2 = _fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)
-        out.append((chi2, fit))
-    return out
+    return sorted(trials, key=lambda t: t[0])[:n_periods]
+
+
+#: Δχ² (scaled by max(1, χ²_min/dof)) on the refinement subsample beyond which a fit is not polished on all data: its
+#: Laplace weight relative to the best is below e^−25 (:mod:`.posterior`) unless its covariance volume is e^25 times
+#: larger, and on all data (more samples) its Δχ² grows. On a 3 × 600-sample atlas-centaur object of
+#: ``benchmarks/bench_inversion.py`` 12 of the 13 distinct optima polished without it were beyond it on all data (the
+#: nearest at Δχ²/s ≈ 670, probability 0 in :mod:`.posterior`).
+REFINE_REACH = 50.0
+
+
+def _within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tuple[float, _Problem]]:
+    """The (χ², fit) pairs of the subsample fits within :data:`REFINE_REACH` of the best, best first; ``n_free`` the
+    subsample's size less its linear parameters (the dof before the fit's own parameters)."""
+    ranked = sorted(coarse, key=lambda c: c[0])
+    if not ranked:
+        return ranked
+    chi2_min, best = ranked[0]
+    scale = max(1.0, chi2_min / max(n_free - best.n, 1))
+    return [c for c in ranked if (c[0] - chi2_min) / scale <= REFINE_REACH]
 
 
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
@@ -387,7 +433,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule
         (2 by default: with the quarter-turn step the screening missed the true basin on 3 × 600 samples at 2 % noise).
     n_grid_samples : samples per curve used by the grid; screen_facets : normals of the screening model.
-    n_candidates : local minima of the pole map refined; n_periods_per_pole : period minima tried at each (nights days
+    n_candidates : local minima of the pole map refined (known shape: twice as many minima of the coarse screen get the
+        full lattice around them, :func:`_known_screen`); n_periods_per_pole : period minima tried at each (nights days
         apart leave cycle-count aliases ≈ P²/T apart: each is refined and reported with its probability).
     axes_T : (n, 3) candidate body spin axes for a known shape (default the principal axes ±x, ±y, ±z).
     n_phases : phases of a known shape's screen (:mod:`.phase_screen`; the rate step follows, ``period_oversampling``
@@ -404,9 +451,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     data = _stack(curves)
     m = np.asarray(model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))).shape[1]
     known = m == 1
-    poles = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2)))
-    if rng is not None:
-        poles = poles @ Rotation.random(random_state=rng).as_matrix().T
+    turn = Rotation.random(random_state=rng).as_matrix() if rng is not None else np.eye(3)
+    poles = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2))) @ turn.T
     # a known shape's χ² is sharp in phase: the rate step then turns the phase at the span's ends by ≤ one phase step 2π/n_phases
     omegas = period_grid((lo, hi), np.ptp(data.t_s), max(period_oversampling, n_phases / 8.0) if known else period_oversampling)
     axes = _PRINCIPAL_AXES if axes_T is None else np.asarray(axes_T, dtype=float)
@@ -414,8 +460,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     grid = _subsample(data, n_grid_samples)
     if known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
         screen_model = model.coarse(screen_known_facets) if hasattr(model, "coarse") else model
-        screen = screen_phases(grid, screen_model, poles, axes, omegas, n_phases=n_phases,
-                               progress=None if progress is None else (lambda j, n: progress(round(j / n * omegas.size), n_total)))
+        poles, screen = _known_screen(grid, screen_model, poles, turn, axes, omegas, n_phases, 2 * n_candidates,
+                                      None if progress is None else (lambda f: progress(round(f * omegas.size), n_total)))
         chi2_grid = screen.chi2
     else:
         screen_model = model.with_facets(screen_facets) if isinstance(model, ConvexModel) else ConvexModel(screen_facets)
@@ -429,9 +475,10 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     # distinct cycle-count aliases in the range: rates 2π/(spread of the curves' mid-times) apart
     mids = [0.5 * (data.t_s[data.curve == k].min() + data.t_s[data.curve == k].max()) for k in range(data.relative.size)]
     n_aliases = min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * np.ptp(mids) / (2 * np.pi))) + 1)
+    trials = []  # known shape: (χ², fit) of the screen's model on the grid samples
     for ip in _local_minima(poles, chi2_map)[:n_candidates]:
         if known:
-            coarse.extend(_known_starts(grid, sub, model, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
+            trials.extend(_alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
                                         n_periods_per_pole, n_aliases))
         else:
             for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
@@ -439,8 +486,10 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         done += n_periods_per_pole
         if progress is not None:
             progress(done, n_total)
+    for _, trial in _within_reach(trials, grid.y.size - 1 - int(data.relative.sum())):
+        coarse.append(_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
     kept: list[_Problem] = []
-    for _, fit in sorted(coarse, key=lambda c: c[0]):  # several starts reach one optimum: polish it once
+    for _, fit in _within_reach(coarse, sub.y.size - m - int(data.relative.sum())):  # several starts reach one optimum: polish it once
         if not any(_same_optimum(fit, k) for k in kept):
             kept.append(fit)
     fits = [_refine(k, data) for k in kept]
