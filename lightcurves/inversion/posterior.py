@@ -51,7 +51,8 @@ the time-averaging factor ``β² ≈ κ`` of transit photometry corrects (Pont, 
 κ sees correlation over a few samples only (the window stops at M ≈ 5 when it is small). The facet
 model's error is also a function of the rotational phase, repeated every turn of a night: a component
 small in power but coherent over the whole night, which biases the pole and which the window misses
-(SC3 seed 1, 3 Mitsuba-rendered nights: κ = 1.0, yet the truth 9 σ² from the fit). The second estimate
+(SC3 seed 1, three 600-s arcs rendered at 64 px, 3 h apart: κ = 1.01, χ²/dof 1.75, yet the truth at
+Mahalanobis² 9.2 from the fit, 2 dof). The second estimate
 compares the nights (Liang & Zeger 1986, Biometrika 73, 13: the nights as independent clusters): each
 night's share of the gradient at the optimum, ``g_k = J_kᵀ r_k`` (Σ_k g_k = 0), has the covariance
 ``J_kᵀ V_k J_k`` — the sandwich's middle, whatever the correlation within the night — against
@@ -64,6 +65,12 @@ night's share of the gradient at the optimum, ``g_k = J_kᵀ r_k`` (Σ_k g_k = 0
 of how much more the nights disagree than independent samples would let them. It needs two nights or
 more (NaN otherwise) and is a χ² with Σ_k rank − p degrees of freedom over them for white residuals
 (3 nights, 6 parameters: a relative spread of 0.41), so on white data s ≈ max(1, χ²₁₂/12): conservative.
+When φ sets s, the scale itself is uncertain: a region of χ²_k quantiles then holds the truth a little
+less often than stated (ν = 12, k = 2: the 95 % and 68 % regions hold it with the F law's probabilities
+P(2 F(2, 12) ≤ 5.99) = 0.91 and 0.65), which the regions here do not correct for.
+
+None of this can list a mode the search never reached: a fit in the wrong basin (χ²/dof in the hundreds
+where the truth's is ~2) inflates its own σ (κ and φ grow) but keeps its sense.
 """
 
 from __future__ import annotations
