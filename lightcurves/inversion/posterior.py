@@ -62,7 +62,8 @@ night's share of the gradient at the optimum, ``g_k = J_kᵀ r_k`` (Σ_k g_k = 0
 
 (p the nonlinear parameters; the expectation of the numerator for white residuals of variance γ(0) is
 γ(0)(Σ_k rank G_k − p), one rank p spent by Σ_k g_k = 0): the average, over the parameters' directions,
-of how much more the nights disagree than independent samples would let them. It needs two nights or
+of how much more the nights disagree than independent samples would let them. The clusters are the
+curves: several curves of one night share its error, which makes φ an underestimate. It needs two curves or
 more (NaN otherwise) and is a χ² with Σ_k rank − p degrees of freedom over them for white residuals
 (3 nights, 6 parameters: a relative spread of 0.41), so on white data s ≈ max(1, χ²₁₂/12): conservative.
 When φ sets s, the scale itself is uncertain: a region of χ²_k quantiles then holds the truth a little
