@@ -236,10 +236,8 @@ def residual_correlation_time(residuals, groups) -> float:
     num = den = 0.0
     for k in np.unique(g):
         rk = r[g == k]
-        if rk.size < 2:
-            continue  # a lone sample has no lag: it counts as independent
         ss = float(rk @ rk)
-        num += integrated_autocorrelation_time(rk) * ss
+        num += (integrated_autocorrelation_time(rk) if rk.size > 1 else 1.0) * ss  # a lone sample has no lag: τ = 1
         den += ss
     return num / den if den > 0 else 1.0
 
