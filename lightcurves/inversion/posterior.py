@@ -26,11 +26,13 @@ night. For least squares with residual covariance V the estimate's covariance is
 when J's columns vary slowly against the correlation length, ``JᵀVJ ≈ σ²_LR JᵀJ`` with the long-run
 variance ``σ²_LR = Σ_ℓ γ(ℓ) = γ(0) τ`` (the residuals' spectral density at zero frequency), so
 
-    Σ = s H⁻¹,        s = max(1, κ · χ²_min / dof, φ),                                           (1)
+    Σ = s H⁻¹,        s = max(1, max(1, κ) · χ²_min / dof, φ),                                   (1)
 
 two estimates of the ratio of the sandwich to the Gauss–Newton covariance, the larger kept. The first,
 ``κ · χ²_min/dof``, has ``χ²_min/dof`` the estimate of γ(0) and κ the residuals' integrated
-autocorrelation time, pooled over the curves k (nights; no correlation is assumed between them):
+autocorrelation time, pooled over the curves k (nights; no correlation is assumed between them); κ < 1
+(anti-correlated residuals, or the estimator's spread on white ones) is not allowed to sharpen the
+posterior below the white-noise scale ``χ²_min/dof``, so s is never below the earlier max(1, χ²_min/dof):
 
     τ_k = 1 + 2 Σ_{ℓ=1}^{M_k} ρ̂_k(ℓ),    ρ̂_k(ℓ) = γ̂_k(ℓ)/γ̂_k(0),    γ̂_k(ℓ) = (1/n_k) Σ_i r_i r_{i+ℓ},    (2)
     κ = Σ_k τ_k r_kᵀr_k / Σ_k r_kᵀr_k,                                                            (3)
@@ -177,7 +179,7 @@ class InversionResult:
 
     solutions : tuple of :class:`SpinSolution`, by decreasing probability.
     dof : degrees of freedom of the best fit (samples − linear − nonlinear parameters).
-    chi2_scale : s = max(1, κ χ²_min/dof), the factor applied to χ² and covariances (module docstring, eq. 1).
+    chi2_scale : s = max(1, max(1, κ) χ²_min/dof, φ), the factor applied to χ² and covariances (module docstring, eq. 1).
     model : the shape model fitted.
     epoch : epoch of every solution's phase.
     pole_grid_I : (n, 3) the searched poles.
@@ -268,13 +270,13 @@ def night_score_dispersion(jacobian, residuals, groups, rtol: float = 1e-10) -> 
 
 def posterior_scale(residuals, groups, dof: int, jacobian=None) -> tuple[float, float, float]:
     """(s, κ, φ) of eqs. (1), (3), (4) from the best fit's whitened residuals (N,), their curves (N,), the fit's degrees of freedom and,
-    if given, its Jacobian (N, p) (without it, or with one night, φ is NaN and s = max(1, κ χ²/dof))."""
+    if given, its Jacobian (N, p) (without it, or with one night, φ is NaN and s = max(1, max(1, κ) χ²/dof))."""
     if int(dof) < 1:
         raise ValueError(f"dof: {dof!r}: expected a positive number of degrees of freedom")
     r = np.asarray(residuals, dtype=float).reshape(-1)
     kappa = residual_correlation_time(r, groups)
     phi = float("nan") if jacobian is None else night_score_dispersion(jacobian, r, groups)[0]
-    return max(1.0, kappa * float(r @ r) / int(dof), 0.0 if np.isnan(phi) else phi), kappa, phi
+    return max(1.0, max(1.0, kappa) * float(r @ r) / int(dof), 0.0 if np.isnan(phi) else phi), kappa, phi
 
 
 def laplace_probabilities(chi2, logdet_cov, scale: float) -> np.ndarray:
