@@ -73,7 +73,9 @@ less often than stated (ν = 12, k = 2: the 95 % and 68 % regions hold it with t
 P(2 F(2, 12) ≤ 5.99) = 0.91 and 0.65), which the regions here do not correct for.
 
 None of this can list a mode the search never reached: a fit in the wrong basin (χ²/dof in the hundreds
-where the truth's is ~2) inflates its own σ (κ and φ grow) but keeps its sense.
+where the truth's is ~2) inflates its own σ (κ and φ grow) but keeps its sense. Nor does it see a model
+error common to every night: it biases the pole without correlating the residuals or setting the nights
+apart (SC1, chain-study seed 7: κ 1.03, φ 0.51, the truth at Mahalanobis² 33 from a 0.36° error).
 """
 
 from __future__ import annotations
