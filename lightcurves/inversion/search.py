@@ -51,7 +51,7 @@ from scipy.spatial.transform import Rotation
 from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.phase_screen import PhaseScreen, screen_phases
-from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities
+from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities, posterior_scale
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
 
@@ -504,7 +504,8 @@ def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> Inver
     best = int(np.argmin(chi2))
     n_linear = int(np.count_nonzero(fits[best][3])) + int(data.relative.sum()) - int((~data.relative).sum() == 0)
     dof = max(data.y.size - n_linear - fits[best][0].n, 1)
-    scale = max(1.0, chi2[best] / dof)
+    # s of :mod:`.posterior` eq. (1): the best fit's residuals, night by night, say how much information they carry
+    scale, kappa, phi = posterior_scale(fits[best][0].residuals(np.zeros(fits[best][0].n)), data.curve, dof, fits[best][1])
     states, covs, logdets, extras = [], [], [], []
     for problem, J, _, _, _ in fits:
         H = J.T @ J
@@ -519,4 +520,5 @@ def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> Inver
     prob = laplace_probabilities(chi2[keep], np.array(logdets)[keep], scale)
     sols = [SpinSolution(states[i], covs[i], extras[i][0], extras[i][1], float(chi2[i]), float(p), fits[i][3], fits[i][4]) for i, p in zip(keep, prob)]
     sols.sort(key=lambda s: -s.probability)
-    return InversionResult(tuple(sols), int(dof), float(scale), model, data.epoch, poles, chi2_map, period_map_s)
+    return InversionResult(tuple(sols), int(dof), float(scale), model, data.epoch, poles, chi2_map, period_map_s, correlation_time=float(kappa),
+                           night_dispersion=float(phi))

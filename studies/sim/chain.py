@@ -119,7 +119,8 @@ def render_prior(
 
 
 def inversion_summary(result) -> dict:
-    """The inversion's modes as JSON-ready numbers (best first): probability, pole (ecliptic, equatorial, σ), period, axis."""
+    """The inversion's modes as JSON-ready numbers (best first): probability, pole (ecliptic, equatorial, σ), period, axis; and the
+    posterior's scale with its two parts, κ and φ (:mod:`lightcurves.inversion.posterior`, eqs. 1–4; φ None with one night)."""
     rows = []
     for s in result.solutions:
         lam, beta = np.degrees(s.ecliptic_rad)
@@ -128,7 +129,9 @@ def inversion_summary(result) -> dict:
                      "pole_ra_deg": float(ra), "pole_dec_deg": float(dec), "pole_sigma_deg": float(s.pole_sigma_deg),
                      "sidereal_period_s": float(s.period_s), "sidereal_period_sigma_s": float(s.period_sigma_s),
                      "body_spin_axis_T": np.asarray(s.state.axis_T).tolist(), "chi2": float(s.chi2)})
-    return {"solutions": rows, "dof": int(result.dof), "chi2_scale": float(result.chi2_scale)}
+    phi = float(result.night_dispersion)
+    return {"solutions": rows, "dof": int(result.dof), "chi2_scale": float(result.chi2_scale),
+            "residual_correlation_time": float(result.correlation_time), "night_dispersion": None if np.isnan(phi) else phi}
 
 
 def arm_tuning(arm: str, spin: BodyRatePrior | None) -> str:

@@ -5,7 +5,7 @@ import pytest
 from astropy.time import Time
 
 from lightcurves.inversion.posterior import InversionResult, SpinSolution
-from lightcurves.inversion.prior import spin_prior_from_inversion, symmetry_axis
+from lightcurves.inversion.prior import SENSE_SETTLED, spin_prior_from_inversion, symmetry_axis
 from lightcurves.inversion.spin import SpinState
 
 EPOCH = Time("2024-03-21T18:00:00", scale="utc")
@@ -83,3 +83,18 @@ def test_symmetry_axis_of_the_targets_inertia(J, axis):
     assert (s is None) if axis is None else np.array_equal(s, axis)
     with pytest.raises(ValueError, match="expected three positive principal moments"):
         symmetry_axis([1.0, -1.0, 2.0])
+
+
+@pytest.mark.parametrize("p", [0.8, 0.97])
+def test_an_unsettled_sense_shortens_the_mean_and_says_so(p):
+    """Modes about a and −a with probabilities p, 1 − p: the mean along a is (2p − 1) ω, its variance 4p(1 − p) ω² (plus the
+    modes' own), and the description calls the sense open below SENSE_SETTLED."""
+    a = np.array([0.0, 0.6, 0.8])
+    ip = spin_prior_from_inversion(_result(_solution(a, 100.0, 1e-3, 0.5, p), _solution(-a, 100.0, 1e-3, 0.5, 1 - p, pole=(0, 0, -1))),
+                                   [3441.0, 1137.0, 3024.0])
+    w = 2 * np.pi / 100.0
+    sigma_w = 2 * np.pi * 1e-3 / 100.0**2
+    assert ip.prior.w_T_T_rad_s @ a == pytest.approx((2 * p - 1) * w, rel=1e-9)
+    assert a @ ip.prior.covariance @ a == pytest.approx(4 * p * (1 - p) * w**2 + sigma_w**2, rel=1e-6)
+    assert ip.sense_settled == (p >= SENSE_SETTLED)
+    assert ("NOT settled" in ip.description) == (p < SENSE_SETTLED)
