@@ -318,7 +318,7 @@ TUNINGS.update({
 
 
 #: The tuning of ``lcnav run`` (with or without a prior) and of issue 12's consistency criterion.
-DEFAULT_TUNING = "relinearized"
+DEFAULT_TUNING = "fixed-lag"
 
 
 #: Names before 2026-11-26, when the names began to say what the tunings are (issue 12): configs and scripts written

@@ -18,7 +18,7 @@ PROXY_MODES = ("always", "on_reject")
 #: Named filter tunings (keys of :data:`estimators.tuning.TUNINGS`) and the default (:data:`estimators.tuning.DEFAULT_TUNING`).
 TUNINGS = ("consistent", "settled", "relinearized", "general-conservative", "sc1-paper", "sc2-paper", "sc3-paper", "sc4-paper",
            "budgeted", "fixed-lag", "sc1-conservative", "sc2-conservative", "sc3-conservative", "sc4-conservative")
-DEFAULT_TUNING = "relinearized"
+DEFAULT_TUNING = "fixed-lag"
 #: Pose noise models (:data:`estimators.measurement.NOISE_MODELS`) and the defaults of :class:`estimators.measurement.PoseNoise`:
 #: model, attitude amplitude (rad), position amplitude (m).
 NOISE_MODELS = ("gaussian", "isotropic")

@@ -213,8 +213,9 @@ def run(
                                               callback=v.path_text()),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
-    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: '{DEFAULT_TUNING}' (consistent, with or "
-                                         "without a prior; the prior enters as the initial condition). What a spin prior selects in the demo and "
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: '{DEFAULT_TUNING}' (real time: a "
+                                         "60-s window re-fitted every 10 s, process noise matched to the perturbed truth; with or without a prior, "
+                                         "the prior enters as the initial condition). What a spin prior selects in the demo and "
                                          "the chain study: sc1-conservative ... sc4-conservative (the paper's scenario tunings with a "
                                          "settling phase); sc1-paper ... sc4-paper as the paper has them (sc3-paper over-confident "
                                          "from the default P_0).", callback=v.text(TUNINGS)),

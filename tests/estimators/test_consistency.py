@@ -156,18 +156,15 @@ def default_p0_runs(truth):
 @pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["SC1", "SC3"])
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
-def test_nees_nis_and_gates_from_the_default_p0(default_p0_runs, scenario, name):
-    """Issue 12's criterion for the default tuning: NEES and NIS in their 95 % band on ≥ 90 % of the steps after the
-    settling time, gate rates within 2× nominal. ``settled`` (the default before ``relinearized``) was in band on 34–79 %
-    of the steps; the EKF and the UKF linearise each step once, and the curved posterior of ``k`` defeats them
-    (estimators.batch)."""
+def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0_runs, scenario, name):
+    """The default (``fixed-lag``) on the truth its model matches: its process noise is matched to the *perturbed* truth
+    (:data:`estimators.tuning.MATCHED_BUDGET`), so here it can only be conservative — not over-confident, NIS in band,
+    gates at their nominal rate. Measured (30 runs of 600 s, ``python -m benchmarks truths``): NEES/dof 0.70–0.71. The
+    perturbed truth's criterion is :func:`tests.estimators.test_fixed_lag.test_fixed_lag_is_consistent_on_the_perturbed_truth`.
+    ``relinearized`` (the default before 2026-11-27) was in band here on 95–100 % of the steps, and 3.4 NEES/dof on the perturbed truth."""
     r = default_p0_runs(scenario, name, DEFAULT_TUNING)
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
-    assert r["diverged"] == 0
-    assert r["nees_in_band"] >= 0.9
-    for s in ("attitude", "position"):
-        assert r[f"nis_{s}_in_band"] >= 0.9
-        assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
+    _assert_not_overconfident(r, lowest_nees_per_dof=0.5)
 
 
 def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
