@@ -418,7 +418,11 @@ def _inflated_root(R: np.ndarray, S: np.ndarray) -> np.ndarray:
     S = 0.5 * (S + np.swapaxes(S, -1, -2))
     if not np.all(np.isfinite(S)):
         raise BatchFitError("the process noise accumulated along the prior's trajectory is not finite")
-    return np.swapaxes(np.linalg.inv(np.linalg.cholesky(R + S)), -1, -2)
+    try:
+        C = np.linalg.cholesky(R + S)
+    except np.linalg.LinAlgError:  # S_j spans more decades than double precision holds (a window's trajectory run off)
+        raise BatchFitError("the process noise accumulated along the prior's trajectory is not positive definite to machine precision") from None
+    return np.swapaxes(np.linalg.inv(C), -1, -2)
 
 
 def _process_noise_at(F: np.ndarray, Q: np.ndarray) -> np.ndarray:

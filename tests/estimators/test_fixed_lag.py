@@ -117,3 +117,18 @@ def test_fixed_lag_is_consistent_on_the_perturbed_truth():
     assert r["diverged"] == 0
     n = 10 * r["dof"]
     assert chi2.ppf(0.005, n) / n < r["nees_per_dof"] < chi2.ppf(0.995, n) / n
+
+
+def test_a_window_whose_process_noise_loses_definiteness_fails_the_fit_not_the_filter():
+    """``R + S_j`` with ``S_j`` spanning more decades than double precision is not positive definite to machine precision:
+    the fit fails with :class:`BatchFitError`, which the filter survives (the settling phase comes back), instead of a
+    ``LinAlgError`` escaping the run (it escaped in one of the one-orbit runs of ``python -m benchmarks truths``)."""
+    from estimators.batch import BatchFitError, _inflated_root
+
+    R = np.eye(3) * 0.12**2 / 3
+    u = np.array([1.0, 1e-9, 0.0]) / np.linalg.norm([1.0, 1e-9, 0.0])
+    S = (1e30 * np.outer(u, u) - 1.0 * np.eye(3))[None]  # a rank-one 1e30 term whose rounding leaves −1 along the others
+    with pytest.raises(BatchFitError, match="positive definite"):
+        _inflated_root(R, S)
+    L = _inflated_root(R, np.zeros((1, 3, 3)))
+    np.testing.assert_allclose(L[0] @ L[0].T, np.linalg.inv(R), rtol=1e-12)
