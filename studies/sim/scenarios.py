@@ -43,6 +43,8 @@ class Scenario:
     orbit_radius_m: float  #: servicer's circular orbit radius
     inclination_rad: float = np.radians(51.6)
     raan_rad: float = 0.0
+    #: servicer's argument of latitude at t = 0 (where on its orbit the encounter starts), rad
+    arg_latitude_rad: float = 0.0
     #: target position relative to the servicer in the servicer's LVLH frame at t = 0, m
     r_TS0_L_m: tuple[float, float, float] = (0.0, 50.0, 0.0)
     #: target velocity relative to the servicer, seen in the rotating LVLH frame, m/s

@@ -70,7 +70,7 @@ def initial_states(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     term ``ω_LI × r``.
     """
     sc = scenario
-    rv_S = circular_orbit_state(sc.orbit_radius_m, sc.inclination_rad, sc.raan_rad, 0.0)
+    rv_S = circular_orbit_state(sc.orbit_radius_m, sc.inclination_rad, sc.raan_rad, sc.arg_latitude_rad)
     C_LI = lvlh_dcm(rv_S[R_I], rv_S[V_I])
     n = sc.mean_motion_rad_s
     r_L = np.asarray(sc.r_TS0_L_m, dtype=float)
