@@ -4,10 +4,10 @@ SC3, torque-free truth, pose measurements every 1 s, §6's initial guess, one pr
 (``time.process_time``) of every step — predict, update, and for ``relinearized`` its full-information fit every
 10 s — read by :func:`estimators.navigation.run_navigation`'s ``clock``, in 100-step blocks:
 
-* ``budgeted`` EKF and UKF (:mod:`estimators.process_noise`; real time, no fits) and ``fixed-lag`` EKF and UKF (a fit
+* ``budgeted`` EKF and UKF (:mod:`estimators.process_noise`; real time, no fits) and ``fixed-lag`` EKF and UKF (the default: a fit
   of a bounded window every 10 s, :class:`estimators.navigation._Relinearization`) over two orbits of the 500 km
   orbit (:data:`DURATION_S`, 11 400 s);
-* ``relinearized`` EKF (the default of ``lcnav run``) over :data:`RELINEARIZED_S` only: its per-step cost grows
+* ``relinearized`` EKF (``lcnav run``'s default until ``fixed-lag`` replaced it) over :data:`RELINEARIZED_S` only: its per-step cost grows
   with the elapsed time (each fit costs ∝ the measurements so far), so two orbits would take hours;
 * baselines in the same run, on the same model, measurements and ``Q_d``: filterpy's ``ExtendedKalmanFilter``
   (``F`` from the model's Jacobian, the error state reset after each step) and ``UnscentedKalmanFilter`` (14-state
@@ -132,7 +132,7 @@ def run() -> str:
     tr, meas, x0 = _data(DURATION_S)
     series = {f"{tun} {f.upper()} (lcnav)": _lcnav(f, tun, tr, meas, x0) for tun in ("budgeted", "fixed-lag") for f in ("ekf", "ukf")}
     short = _data(RELINEARIZED_S)
-    series["relinearized EKF (lcnav default)"] = _lcnav("ekf", "relinearized", *short)
+    series["relinearized EKF (lcnav, the former default)"] = _lcnav("ekf", "relinearized", *short)
     series["filterpy ExtendedKalmanFilter (baseline)"] = _filterpy("ekf", tr, meas, x0)
     series["filterpy UnscentedKalmanFilter (baseline)"] = _filterpy("ukf", tr, meas, x0)
     _figure(series)
@@ -142,7 +142,7 @@ def run() -> str:
              f"(`time.process_time`): the median over the run, and the mean of {BLOCK}-step blocks (amortised: a block holds 10 "
              f"of `relinearized`'s or `fixed-lag`'s fits, which the median misses). `budgeted` and `fixed-lag` run {DURATION_S:.0f} s"
              f"{'' if QUICK else ' (two orbits at 500 km)'}; "
-             f"`relinearized` (the default, a full-information fit every 10 s) runs {RELINEARIZED_S:.0f} s. filterpy's filters run the "
+             f"`relinearized` (the former default, a full-information fit every 10 s) runs {RELINEARIZED_S:.0f} s. filterpy's filters run the "
              "same model, measurements and `Q_d` on the error state (the same-run baseline). Issue 31's targets: last block ≤ 1.2× the "
              "block at 300 s; median ≤ 1 ms (EKF), ≤ 3 ms (UKF). Figure: `benchmarks/realtime.png`.", "",
              "| filter | steps | median (ms) | p90 (ms) | block mean at 300 s (ms) | last block mean (ms) | last / at 300 s | "
