@@ -359,6 +359,23 @@ def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axe
     return sorted(trials, key=lambda t: t[0])[:n_periods]
 
 
+def _axis_rows(grid: _Data, screen_model, pole_I, axes: np.ndarray, omegas, n_phases: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """At one candidate pole, the screen's (χ²(ω) row, phase per rate, axis per rate) of every body axis whose best screen χ²
+    there is within :data:`REFINE_REACH` (scaled) of the best axis's, best first.
+
+    The pole map keeps one axis per pole (its minimum over axes), and a shape with a near-symmetry has two axes that
+    differ there by less than the screen's own model error (the coarse copy's): on a one-night box-wing object of
+    ``benchmarks/bench_inversion.py`` the screen's axis at the true pole was −x, the truth +x, and the fit from −x
+    ended 20 in χ² above the truth's optimum with the phase 137° off. Each axis is screened on its own at this pole
+    (cheap: one pole) so that every axis the screen cannot rule out gets its own start.
+    """
+    rows = [screen_phases(grid, screen_model, pole_I[None, :], axes[a:a + 1], omegas, n_phases=n_phases) for a in range(len(axes))]
+    best = np.array([r.chi2.min() for r in rows])
+    scale = max(1.0, float(best.min()) / max(grid.y.size - 1 - int(grid.relative.sum()), 1))
+    keep = [a for a in np.argsort(best) if (best[a] - best.min()) / scale <= REFINE_REACH]
+    return [(rows[a].chi2[0], rows[a].phase_rad[0], np.broadcast_to(axes[a], (len(omegas), 3))) for a in keep]
+
+
 #: Δχ² (scaled by max(1, χ²_min/dof)) on the refinement subsample beyond which a fit is not polished on all data: its
 #: Laplace weight relative to the best is below e^−25 (:mod:`.posterior`) unless its covariance volume is e^25 times
 #: larger, and on all data (more samples) its Δχ² grows. On a 3 × 600-sample atlas-centaur object of
@@ -478,8 +495,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     trials = []  # known shape: (χ², fit) of the screen's model on the grid samples
     for ip in _local_minima(poles, chi2_map)[:n_candidates]:
         if known:
-            trials.extend(_alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
-                                        n_periods_per_pole, n_aliases))
+            for row, phase_rad, axes_row in _axis_rows(grid, screen_model, poles[ip], axes, omegas, n_phases):
+                trials.extend(_alias_trials(grid, screen_model, poles[ip], omegas, row, phase_rad, axes_row, n_periods_per_pole, n_aliases))
         else:
             for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
                 coarse.append(_fit(_Problem(sub, model, pole_frame(poles[ip]), omegas[iw], np.eye(3), False, False), 180)[::-1])
