@@ -359,23 +359,6 @@ def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axe
     return sorted(trials, key=lambda t: t[0])[:n_periods]
 
 
-def _axis_rows(grid: _Data, screen_model, pole_I, axes: np.ndarray, omegas, n_phases: int) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """At one candidate pole, the screen's (χ²(ω) row, phase per rate, axis per rate) of every body axis whose best screen χ²
-    there is within :data:`REFINE_REACH` (scaled) of the best axis's, best first.
-
-    The pole map keeps one axis per pole (its minimum over axes), and a shape with a near-symmetry has two axes that
-    differ there by less than the screen's own model error (the coarse copy's): on a one-night box-wing object of
-    ``benchmarks/bench_inversion.py`` the screen's axis at the true pole was −x, the truth +x, and the fit from −x
-    ended 20 in χ² above the truth's optimum with the phase 137° off. Each axis is screened on its own at this pole
-    (cheap: one pole) so that every axis the screen cannot rule out gets its own start.
-    """
-    rows = [screen_phases(grid, screen_model, pole_I[None, :], axes[a:a + 1], omegas, n_phases=n_phases) for a in range(len(axes))]
-    best = np.array([r.chi2.min() for r in rows])
-    scale = max(1.0, float(best.min()) / max(grid.y.size - 1 - int(grid.relative.sum()), 1))
-    keep = [a for a in np.argsort(best) if (best[a] - best.min()) / scale <= REFINE_REACH]
-    return [(rows[a].chi2[0], rows[a].phase_rad[0], np.broadcast_to(axes[a], (len(omegas), 3))) for a in keep]
-
-
 #: Δχ² (scaled by max(1, χ²_min/dof)) on the refinement subsample beyond which a fit is not polished on all data: its
 #: Laplace weight relative to the best is below e^−25 (:mod:`.posterior`) unless its covariance volume is e^25 times
 #: larger, and on all data (more samples) its Δχ² grows. On a 3 × 600-sample atlas-centaur object of
@@ -393,6 +376,37 @@ def _within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tup
     chi2_min, best = ranked[0]
     scale = max(1.0, chi2_min / max(n_free - best.n, 1))
     return [c for c in ranked if (c[0] - chi2_min) / scale <= REFINE_REACH]
+
+
+def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[_Problem]:
+    """The fits within :data:`REFINE_REACH` of the best, one per optimum (several starts reach one optimum: polish it once)."""
+    kept: list[_Problem] = []
+    for _, fit in _within_reach(coarse, n_free):
+        if not any(_same_optimum(fit, k) for k in kept):
+            kept.append(fit)
+    return kept
+
+
+def _half_turn_starts(kept: list[_Problem]) -> list[_Problem]:
+    """Starts with each fit's body turned half a turn about the two body axes perpendicular to its spin axis.
+
+    Spinning about −a is spinning about a with the body turned by π about an axis b ⟂ a (``C_IT' = C_IT R_b(π)``, so
+    ``C_TA' = R_b(π) C_TA``, same pole, phase and rate). A shape with a near two-fold symmetry about b shows the two
+    almost alike, closer than the screen's phase and rate steps resolve, and a fit cannot turn the body over by itself.
+    On a two-night box-wing object of ``benchmarks/bench_inversion.py`` the search found the pole (0.6° off) with −x
+    at χ² 402 while the truth's optimum, with +x, was at 294; the screen at the true pole put ±x at 2682 and 1713
+    (2538 and 2631 with four times the phases): the screen cannot rank them, the half-turned start can.
+    """
+    starts = []
+    for fit in kept:
+        a = fit.C_TA0[:, 2]
+        for b in np.eye(3):
+            b = b - (b @ a) * a
+            if np.linalg.norm(b) < 0.5:
+                continue
+            b /= np.linalg.norm(b)
+            starts.append(_Problem(fit.data, fit.model, fit.C_IP0, fit.omega0, (2.0 * np.outer(b, b) - np.eye(3)) @ fit.C_TA0, True, True))
+    return starts
 
 
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
@@ -495,8 +509,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     trials = []  # known shape: (χ², fit) of the screen's model on the grid samples
     for ip in _local_minima(poles, chi2_map)[:n_candidates]:
         if known:
-            for row, phase_rad, axes_row in _axis_rows(grid, screen_model, poles[ip], axes, omegas, n_phases):
-                trials.extend(_alias_trials(grid, screen_model, poles[ip], omegas, row, phase_rad, axes_row, n_periods_per_pole, n_aliases))
+            trials.extend(_alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
+                                        n_periods_per_pole, n_aliases))
         else:
             for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
                 coarse.append(_fit(_Problem(sub, model, pole_frame(poles[ip]), omegas[iw], np.eye(3), False, False), 180)[::-1])
@@ -505,10 +519,10 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
             progress(done, n_total)
     for _, trial in _within_reach(trials, grid.y.size - 1 - int(data.relative.sum())):
         coarse.append(_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
-    kept: list[_Problem] = []
-    for _, fit in _within_reach(coarse, sub.y.size - m - int(data.relative.sum())):  # several starts reach one optimum: polish it once
-        if not any(_same_optimum(fit, k) for k in kept):
-            kept.append(fit)
+    kept = _distinct_within_reach(coarse, sub.y.size - m - int(data.relative.sum()))
+    if known:  # the body turned over at each optimum: a near-symmetric shape's other axis sign (:func:`_half_turn_starts`)
+        coarse += [_fit(t, 360)[::-1] for t in _half_turn_starts(kept)]
+        kept = _distinct_within_reach(coarse, sub.y.size - m - int(data.relative.sum()))
     fits = [_refine(k, data) for k in kept]
     if progress is not None and done < n_total:  # fewer local minima than n_candidates: the bar still ends full
         progress(n_total, n_total)
