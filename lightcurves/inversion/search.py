@@ -378,34 +378,37 @@ def _within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tup
     return [c for c in ranked if (c[0] - chi2_min) / scale <= REFINE_REACH]
 
 
-def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[_Problem]:
-    """The fits within :data:`REFINE_REACH` of the best, one per optimum (several starts reach one optimum: polish it once)."""
-    kept: list[_Problem] = []
-    for _, fit in _within_reach(coarse, n_free):
-        if not any(_same_optimum(fit, k) for k in kept):
-            kept.append(fit)
+def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tuple[float, _Problem]]:
+    """The (χ², fit) pairs within :data:`REFINE_REACH` of the best, one per optimum (several starts reach one optimum:
+    polish it once), best first."""
+    kept: list[tuple[float, _Problem]] = []
+    for chi2, fit in _within_reach(coarse, n_free):
+        if not any(_same_optimum(fit, k) for _, k in kept):
+            kept.append((chi2, fit))
     return kept
 
 
-def _half_turn_starts(kept: list[_Problem]) -> list[_Problem]:
-    """Starts with each fit's body turned half a turn about the two body axes perpendicular to its spin axis.
+def _half_turns(fit: _Problem) -> list[_Problem]:
+    """Starts with the fit's body turned half a turn about the two body axes perpendicular to its spin axis; a fit from
+    one is kept only if it ends lower (by more than 1 in χ²) than the fit it came from.
 
     Spinning about −a is spinning about a with the body turned by π about an axis b ⟂ a (``C_IT' = C_IT R_b(π)``, so
     ``C_TA' = R_b(π) C_TA``, same pole, phase and rate). A shape with a near two-fold symmetry about b shows the two
     almost alike, closer than the screen's phase and rate steps resolve, and a fit cannot turn the body over by itself.
     On a two-night box-wing object of ``benchmarks/bench_inversion.py`` the search found the pole (0.6° off) with −x
     at χ² 402 while the truth's optimum, with +x, was at 294; the screen at the true pole put ±x at 2682 and 1713
-    (2538 and 2631 with four times the phases): the screen cannot rank them, the half-turned start can.
+    (2538 and 2631 with four times the phases): the screen cannot rank them, the half-turned start can. For an exact
+    symmetry (atlas-centaur about its long axis) the half-turned fit is the same light curve, no lower, and is dropped:
+    keeping such twins doubled the optima polished on all data.
     """
     starts = []
-    for fit in kept:
-        a = fit.C_TA0[:, 2]
-        for b in np.eye(3):
-            b = b - (b @ a) * a
-            if np.linalg.norm(b) < 0.5:
-                continue
-            b /= np.linalg.norm(b)
-            starts.append(_Problem(fit.data, fit.model, fit.C_IP0, fit.omega0, (2.0 * np.outer(b, b) - np.eye(3)) @ fit.C_TA0, True, True))
+    a = fit.C_TA0[:, 2]
+    for b in np.eye(3):
+        b = b - (b @ a) * a
+        if np.linalg.norm(b) < 0.5:
+            continue
+        b /= np.linalg.norm(b)
+        starts.append(_Problem(fit.data, fit.model, fit.C_IP0, fit.omega0, (2.0 * np.outer(b, b) - np.eye(3)) @ fit.C_TA0, True, True))
     return starts
 
 
@@ -519,10 +522,13 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
             progress(done, n_total)
     for _, trial in _within_reach(trials, grid.y.size - 1 - int(data.relative.sum())):
         coarse.append(_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
-    kept = _distinct_within_reach(coarse, sub.y.size - m - int(data.relative.sum()))
-    if known:  # the body turned over at each optimum: a near-symmetric shape's other axis sign (:func:`_half_turn_starts`)
-        coarse += [_fit(t, 360)[::-1] for t in _half_turn_starts(kept)]
-        kept = _distinct_within_reach(coarse, sub.y.size - m - int(data.relative.sum()))
+    n_free = sub.y.size - m - int(data.relative.sum())
+    kept = _distinct_within_reach(coarse, n_free)
+    if known:  # the body turned over at each optimum: a near-symmetric shape's other axis sign (:func:`_half_turns`)
+        better = [(c, f) for chi2, fit in kept for f, c in (_fit(t, 360) for t in _half_turns(fit)) if c < chi2 - 1.0]
+        if better:
+            kept = _distinct_within_reach(coarse + better, n_free)
+    kept = [fit for _, fit in kept]
     fits = [_refine(k, data) for k in kept]
     if progress is not None and done < n_total:  # fewer local minima than n_candidates: the bar still ends full
         progress(n_total, n_total)

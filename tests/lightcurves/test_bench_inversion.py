@@ -99,7 +99,7 @@ def test_invert_is_not_beaten_by_the_truth_when_two_body_axes_screen_alike():
     """A global search on the model that made the data must end at least as low as the true spin state, one point of
     the space it searches. One night of a box-wing (near two-fold symmetric: its ±x spins look almost alike): the
     screen's axis at the true pole was −x, and a search whose fits could not turn the body over ended at χ² 148 against
-    the truth's 134; each optimum now also starts half-turned (``search._half_turn_starts``)."""
+    the truth's 134; each optimum now also starts half-turned (``search._half_turns``)."""
     model = KnownShapeModel.from_target(get_target("box-wing"))
     case = B.draw_case(np.random.default_rng(2), "box-wing", 1, 150)
     rng = np.random.default_rng(10_002)
