@@ -412,6 +412,22 @@ def _half_turns(fit: _Problem) -> list[_Problem]:
     return starts
 
 
+def _half_turned_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from each of :func:`_half_turns` that ends lower than ``chi2`` by more than 1;
+    each is first tried briefly on the grid samples (``48`` evaluations, as an alias trial) against the unturned fit there,
+    so that a symmetric twin costs two brief fits, not two full ones (the screen's coarse model cannot rank the two)."""
+    on_grid = _Problem(grid, fit.model, fit.C_IP0, fit.omega0, fit.C_TA0, True, True)
+    r0 = on_grid.residuals(np.zeros(on_grid.n))
+    out = []
+    for start in _half_turns(fit):
+        brief, c = _fit(_Problem(grid, fit.model, start.C_IP0, start.omega0, start.C_TA0, True, True), 48)
+        if c < float(r0 @ r0) - 1.0:
+            full, c_full = _fit(_Problem(fit.data, fit.model, brief.C_IP0, brief.omega0, brief.C_TA0, True, True), 360)
+            if c_full < chi2 - 1.0:
+                out.append((c_full, full))
+    return out
+
+
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
     """Polish a fit made on a subsample on all ``data``: (problem re-centred at θ = 0, J, χ², w, s)."""
     full = _Problem(data, problem.model, problem.C_IP0, problem.omega0, problem.C_TA0, problem.fit_phase, problem.fit_axis)
@@ -525,7 +541,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     n_free = sub.y.size - m - int(data.relative.sum())
     kept = _distinct_within_reach(coarse, n_free)
     if known:  # the body turned over at each optimum: a near-symmetric shape's other axis sign (:func:`_half_turns`)
-        better = [(c, f) for chi2, fit in kept for f, c in (_fit(t, 360) for t in _half_turns(fit)) if c < chi2 - 1.0]
+        better = [f for chi2, fit in kept for f in _half_turned_fits(fit, chi2, grid)]
         if better:
             kept = _distinct_within_reach(coarse + better, n_free)
     kept = [fit for _, fit in kept]
