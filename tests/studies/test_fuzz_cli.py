@@ -18,10 +18,12 @@ within the documented bounds — and that nothing was written before it.
 """
 
 import contextlib
+import importlib
 import io
 import json
 import math
 import os
+import pkgutil
 import tempfile
 from pathlib import Path
 from unittest import mock
@@ -33,6 +35,20 @@ from hypothesis import strategies as st
 from studies.cli import main
 
 SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)
+
+
+def _import_everything(*packages) -> None:
+    """Import every module of ``packages`` now, so that their ``from x import y`` bind the real functions: a module first
+    imported while a sentinel is patched in (a command's lazy import) would keep the sentinel for the rest of the worker's
+    tests (seen: ``studies.catalog.demo.simulate_truth`` raised :class:`Reached` in ``test_demo``)."""
+    for package in packages:
+        module = importlib.import_module(package)
+        for info in pkgutil.walk_packages(module.__path__, package + "."):
+            if not info.name.endswith("__main__"):
+                importlib.import_module(info.name)
+
+
+_import_everything("studies", "lightcurves")
 
 
 class Reached(BaseException):
