@@ -388,9 +388,8 @@ def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) ->
     return kept
 
 
-def _half_turns(fit: _Problem) -> list[_Problem]:
-    """Starts with the fit's body turned half a turn about the two body axes perpendicular to its spin axis; a fit from
-    one is kept only if it ends lower (by more than 1 in χ²) than the fit it came from.
+def _half_turns(C_TA: np.ndarray) -> list[np.ndarray]:
+    """The body-to-spin frames ``C_TA`` turned half a turn about the two body axes perpendicular to the spin axis.
 
     Spinning about −a is spinning about a with the body turned by π about an axis b ⟂ a (``C_IT' = C_IT R_b(π)``, so
     ``C_TA' = R_b(π) C_TA``, same pole, phase and rate). A shape with a near two-fold symmetry about b shows the two
@@ -401,15 +400,15 @@ def _half_turns(fit: _Problem) -> list[_Problem]:
     symmetry (atlas-centaur about its long axis) the half-turned fit is the same light curve, no lower, and is dropped:
     keeping such twins doubled the optima polished on all data.
     """
-    starts = []
-    a = fit.C_TA0[:, 2]
+    turned = []
+    a = C_TA[:, 2]
     for b in np.eye(3):
         b = b - (b @ a) * a
         if np.linalg.norm(b) < 0.5:
             continue
         b /= np.linalg.norm(b)
-        starts.append(_Problem(fit.data, fit.model, fit.C_IP0, fit.omega0, (2.0 * np.outer(b, b) - np.eye(3)) @ fit.C_TA0, True, True))
-    return starts
+        turned.append((2.0 * np.outer(b, b) - np.eye(3)) @ C_TA)
+    return turned
 
 
 def _half_turned_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
@@ -419,8 +418,8 @@ def _half_turned_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[flo
     on_grid = _Problem(grid, fit.model, fit.C_IP0, fit.omega0, fit.C_TA0, True, True)
     r0 = on_grid.residuals(np.zeros(on_grid.n))
     out = []
-    for start in _half_turns(fit):
-        brief, c = _fit(_Problem(grid, fit.model, start.C_IP0, start.omega0, start.C_TA0, True, True), 48)
+    for C_TA in _half_turns(fit.C_TA0):
+        brief, c = _fit(_Problem(grid, fit.model, fit.C_IP0, fit.omega0, C_TA, True, True), 48)
         if c < float(r0 @ r0) - 1.0:
             full, c_full = _fit(_Problem(fit.data, fit.model, brief.C_IP0, brief.omega0, brief.C_TA0, True, True), 360)
             if c_full < chi2 - 1.0:
