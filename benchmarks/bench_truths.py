@@ -11,7 +11,8 @@ sample the disturbance, as the chi-square bands assume).
 
 Sizes (environment): ``LCNAV_BENCH_TRUTHS_RUNS`` × ``LCNAV_BENCH_TRUTHS_DURATION_S`` for the first table (30 × 600 s),
 ``LCNAV_BENCH_TRUTHS_ORBIT_RUNS`` dispersed runs of one orbit (5700 s; default 10) for the second, EKF only. Wall time
-on 2 cores: more than 66 min with 82 min of CPU per worker (2026-11-27, on a shared machine, not finished); allow ~2 h.
+on 2 cores: 23 min (2026-11-27, after the fixed-lag window was bounded; before, the SC1 orbit runs alone took more than
+10 min of CPU each and the benchmark did not finish in 66 min).
 """
 
 from __future__ import annotations
