@@ -35,8 +35,8 @@ def shot(rrds, png, **kw):
 #: Pictures taken of the same recording before one shows its plots: on a loaded machine rerun 0.41's headless viewer
 #: sometimes saves its frame before the time-series views have drawn (measured 3 of 9 pictures with three busy loops on
 #: 2 cores; 0 of 7 otherwise), a known limit of ``--screenshot-to`` that the picture check cannot tell from an empty run.
-#: In a full ``make test`` on 2 cores (2026-11-27) all 3 pictures of ``lcnav inspect --screenshot`` were empty once in
-#: 4 suites, so 6: each picture takes seconds, and one that shows the plots ends the loop.
+#: In full ``make test`` runs on 2 cores (2026-11-27) a test had all 3 of its pictures empty in 2 of 4 suites,
+#: so 6: each picture takes seconds, and one that shows the plots ends the loop.
 ATTEMPTS = 6
 XYZ = {a: COMPONENT_RGB[a] for a in "xyz"}  #: the three components' line colours
 
