@@ -277,8 +277,6 @@ class _Relinearization:
         k_start, x_prior, P_prior = self.anchors[0] if self.lag_steps else (0, self.x0_prior, self.P0)
         last_resort = bool(self.lag_steps and k - k_start > self.max_steps)
         if last_resort:  # no trusted anchor within the bound: the filter's output one lag back
-            while self.outputs and self.outputs[0][0] < k - self.max_steps:
-                self.outputs.popleft()
             k_start, x_prior, P_prior = max((o for o in self.outputs if o[0] <= k - self.lag_steps), key=lambda o: o[0],
                                             default=(k_start, x_prior, P_prior))  # there is one: a fit every period since the first
         if k_start > 0:  # a window from the filter's own output (class docstring)
@@ -311,8 +309,11 @@ class _Relinearization:
         self._keep_output(filt, k)
 
     def _keep_output(self, filt, k: int) -> None:
+        """Keep the filter's output after the fit at step ``k``; forget those older than the bound (bounded memory)."""
         if self.lag_steps:
             self.outputs.append((k, filt.x.copy(), filt.P.copy()))
+            while self.outputs[0][0] < k - self.max_steps:
+                self.outputs.popleft()
 
 
 def _agrees(filt, x) -> bool:
