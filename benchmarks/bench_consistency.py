@@ -18,7 +18,7 @@ import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from estimators.tuning import DEFAULT_TUNING, get_tuning
+from estimators.tuning import default_tuning, get_tuning
 from studies.sim.metrics import SETTLING_S
 from studies.sim.navigation import consistency_check
 from studies.sim.scenarios import get_scenario
@@ -79,7 +79,7 @@ def _interval_row(r: dict, dt: float) -> str:
 def run() -> str:
     t0 = time.perf_counter()
     cases = [(sc, tuning, f, 1.0, "torque-free") for sc, tuning in CASES for f in FILTERS]
-    interval_cases = [(sc, DEFAULT_TUNING, f, dt, "torque-free") for sc, dt in INTERVAL_CASES for f in FILTERS]
+    interval_cases = [(sc, default_tuning("torque-free"), f, dt, "torque-free") for sc, dt in INTERVAL_CASES for f in FILTERS]
     # one row per process (each row's seeds are its own, so the table does not depend on the order or the workers)
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
         rows = list(pool.map(_row, cases))

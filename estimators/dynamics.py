@@ -254,6 +254,22 @@ def euler_rate(w, J):
     return (-c[0] / J[0], -c[1] / J[1], -c[2] / J[2])
 
 
+@numba.njit(cache=True, error_model="numpy")
+def gravity_gradient_torque(r_B, J, mu):
+    """Gravity-gradient torque on a rigid body, ``τ_B = 3μ/r⁵ (r_B × J r_B)`` (Hughes 1986; Wie 2008 ch. 6).
+
+    ``r_B``: the body's position from the Earth's centre in its principal frame B (m, 3-tuple);
+    ``J``: principal inertia (3-tuple, any unit: the torque comes out in that unit × s⁻²);
+    ``mu``: m³/s². Zero when ``r_B`` lies along a principal axis, and for ``A = B = C``.
+    Returns a 3-tuple in B. Lives here, not in :mod:`estimators.perturbations`, because the filters' model may
+    include it (:func:`joint_rhs`, ``gg``): the torque is known physics given the inertia ratios and the orbit.
+    """
+    r2 = r_B[0] ** 2 + r_B[1] ** 2 + r_B[2] ** 2
+    k = 3.0 * mu / (r2 * r2 * np.sqrt(r2))
+    c = cross3(r_B, (J[0] * r_B[0], J[1] * r_B[1], J[2] * r_B[2]))
+    return (k * c[0], k * c[1], k * c[2])
+
+
 @numba.njit(cache=True)
 def quat_to_dcm_nb(q):
     """``R(q)`` of one quaternion as nested tuples (rows), compiled twin of :func:`estimators.attitude.quat_to_dcm` for numba code."""
@@ -296,7 +312,18 @@ def absolute_rhs_nb(s, J, mu):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def joint_rhs_into(z, J_S, mu, out):
+def gravity_gradient_rate(r_T_T, JT, mu):
+    """``ω̇`` of the gravity-gradient torque: ``J⁻¹ τ = 3μ/|r|⁵ J⁻¹ (r × J r) = −3μ/|r|⁵ E(r)`` with ``E`` Euler's
+    torque-free right-hand side (:func:`euler_rate`) evaluated at ``r`` instead of ``ω`` (the two share the form
+    ``J⁻¹ (u × J u)``). ``r_T_T``: the body's position from the Earth's centre in its principal frame (m)."""
+    r2 = r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2
+    n3 = 3.0 * mu / (r2 * r2 * np.sqrt(r2))
+    e = euler_rate(r_T_T, JT)
+    return (-n3 * e[0], -n3 * e[1], -n3 * e[2])
+
+
+@numba.njit(cache=True, error_model="numpy")
+def joint_rhs_into(z, J_S, mu, gg, out):
     """:func:`joint_rhs` written into ``out`` (28): what the RK4 loops call, on buffers they reuse."""
     X, S = JOINT_X.start, JOINT_S.start
     q = get4(z, Q_TS, X)
@@ -312,6 +339,8 @@ def joint_rhs_into(z, J_S, mu, out):
     rs = np.sqrt(r_SI[0] ** 2 + r_SI[1] ** 2 + r_SI[2] ** 2)
     _absolute_rhs_into(z, J_S, mu, out, S)
     dw_S = get3(out, W_B, S)
+    r_S_T = mat_vec(R_TS, mat_t_vec(R_IS, r_SI))  # servicer position from Earth's centre, in T
+    r_T_T = (r_S_T[0] - r[0], r_S_T[1] - r[1], r_S_T[2] - r[2])  # the target's
 
     # relative attitude: q̇_TS = ½ [0, ω_ST_T] ⊗ q_TS  (= ½ Q(q_TS) ω_ST_S, eq. 2)
     i = X + Q_TS.start
@@ -323,14 +352,15 @@ def joint_rhs_into(z, J_S, mu, out):
     w_S_T = mat_vec(R_TS, get3(z, W_B, S))
     w_T = (w_S_T[0] - w[0], w_S_T[1] - w[1], w_S_T[2] - w[2])  # eq. 1 solved for the target's own rate
     dw_T = euler_rate(w_T, JT)  # eq. 6, torque-free
+    if gg != 0.0:  # the target's gravity-gradient torque (joint_rhs)
+        g = gravity_gradient_rate(r_T_T, JT, mu)
+        dw_T = (dw_T[0] + gg * g[0], dw_T[1] + gg * g[1], dw_T[2] + gg * g[2])
     # eq. 7: α_ST = ω_ST × ω_S_T + R_TS ω̇_S_S − ω̇_T_T   (ω_ST × ω_S_T = −ω_T × ω_ST)
     a = cross3(w, w_S_T)
     b = mat_vec(R_TS, dw_S)
     put3(out, W_ST_T, (a[0] + b[0] - dw_T[0], a[1] + b[1] - dw_T[1], a[2] + b[2] - dw_T[2]), X)
 
     # translation, eqs 8–15 via the transport theorem in the rotating T frame
-    r_S_T = mat_vec(R_TS, mat_t_vec(R_IS, r_SI))  # servicer position from Earth's centre, in T
-    r_T_T = (r_S_T[0] - r[0], r_S_T[1] - r[1], r_S_T[2] - r[2])
     rt = np.sqrt(r_T_T[0] ** 2 + r_T_T[1] ** 2 + r_T_T[2] ** 2)
     put3(out, R_ST_T, v, X)
     c1 = cross3(w_T, v)
@@ -344,41 +374,44 @@ def joint_rhs_into(z, J_S, mu, out):
 
 
 @numba.njit(cache=True)
-def joint_rhs(z, J_S, mu):
+def joint_rhs(z, J_S, mu, gg):
     """Right-hand side of the joint vector ``[x (15), s (13)]``.
 
     ``x`` is the relative state of eq. 17; ``s = [r_S_I, v_S_I, q_IS, ω_S_S]``
     is the servicer's own absolute state (its AODS), propagated alongside so
     the relative model always sees the servicer at the right instant.
+    ``gg``: 1 adds the gravity-gradient torque on the target to Euler's equations (beyond the paper's eq. 21:
+    :func:`gravity_gradient_rate` at ``r_T_T = R_TS R_SI r_S_I − r_ST_T``, known given the inertia ratios and the
+    servicer's AODS, and the largest term a torque-free model leaves out in LEO); 0, the paper's torque-free target.
     """
     out = np.empty(N_STATE + N_ABSOLUTE)
-    joint_rhs_into(z, J_S, mu, out)
+    joint_rhs_into(z, J_S, mu, gg, out)
     return out
 
 
 @numba.njit(cache=True)
-def rk4_joint_step(z, J_S, mu, dt, work):
+def rk4_joint_step(z, J_S, mu, gg, dt, work):
     """One RK4 step of :func:`joint_rhs` from ``z`` (28), in place; ``work`` (5, 28): scratch for the stages.
 
     Element by element in the order of ``z + dt/6 (k1 + 2 k2 + 2 k3 + k4)``: the numbers of the array
     expressions, without the allocation of each.
     """
     k1, k2, k3, k4, zt = work[0], work[1], work[2], work[3], work[4]
-    joint_rhs_into(z, J_S, mu, k1)
+    joint_rhs_into(z, J_S, mu, gg, k1)
     for i in range(z.size):
         zt[i] = z[i] + 0.5 * dt * k1[i]
-    joint_rhs_into(zt, J_S, mu, k2)
+    joint_rhs_into(zt, J_S, mu, gg, k2)
     for i in range(z.size):
         zt[i] = z[i] + 0.5 * dt * k2[i]
-    joint_rhs_into(zt, J_S, mu, k3)
+    joint_rhs_into(zt, J_S, mu, gg, k3)
     for i in range(z.size):
         zt[i] = z[i] + dt * k3[i]
-    joint_rhs_into(zt, J_S, mu, k4)
+    joint_rhs_into(zt, J_S, mu, gg, k4)
     for i in range(z.size):
         z[i] = z[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
+def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH, *, gravity_gradient: bool = False) -> np.ndarray:
     """Time derivative of the 15-state relative vector (eq. 21 of Renis et al.).
 
     ``x = [q_TS, ω_ST_T, r_ST_T, v_ST_T, k1, k2]``; ``servicer = [r_S_I, v_S_I,
@@ -403,18 +436,21 @@ def relative_rhs(x, servicer, J_S_diag, mu: float = MU_EARTH) -> np.ndarray:
       where ``r̈ = −μ r/|r|³`` for each body and
       ``r_S_T = R_TS R_SI r_S_I``, ``r_T_T = r_S_T − r_ST_T`` (eqs 12–14).
 
+    ``gravity_gradient``: add the target's gravity-gradient torque (:func:`joint_rhs`).
+
     Accepts ``x`` of shape ``(15,)`` or ``(N, 15)`` (a batch, e.g. sigma points).
     """
     x = np.asarray(x, dtype=float)
     s = np.asarray(servicer, dtype=float)
     J = np.asarray(J_S_diag, dtype=float)
+    gg = 1.0 if gravity_gradient else 0.0
     if x.ndim == 1:
-        return joint_rhs(np.concatenate([x, s]), J, mu)[JOINT_X]
-    return np.stack([joint_rhs(np.concatenate([xi, s]), J, mu)[JOINT_X] for xi in x])
+        return joint_rhs(np.concatenate([x, s]), J, mu, gg)[JOINT_X]
+    return np.stack([joint_rhs(np.concatenate([xi, s]), J, mu, gg)[JOINT_X] for xi in x])
 
 
 @numba.njit(cache=True)
-def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
+def _rk4_joint(x0, s0, J_S, mu, gg, dt, n_steps, stride):
     n_out = n_steps // stride + 1
     xs = np.empty((n_out, N_STATE))
     ss = np.empty((n_out, N_ABSOLUTE))
@@ -426,7 +462,7 @@ def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
     ss[0] = s0
     j = 1
     for i in range(n_steps):
-        rk4_joint_step(z, J_S, mu, dt, work)
+        rk4_joint_step(z, J_S, mu, gg, dt, work)
         if (i + 1) % stride == 0:
             xs[j] = z[JOINT_X]
             ss[j] = z[JOINT_S]
@@ -435,20 +471,21 @@ def _rk4_joint(x0, s0, J_S, mu, dt, n_steps, stride):
 
 
 @numba.njit(cache=True)
-def _rk4_batch(X, s0, J_S, mu, dt, n_steps):
+def _rk4_batch(X, s0, J_S, mu, gg, dt, n_steps):
     out = np.empty_like(X)
     for b in range(X.shape[0]):
-        xs, _ = _rk4_joint(X[b], s0, J_S, mu, dt, n_steps, n_steps)
+        xs, _ = _rk4_joint(X[b], s0, J_S, mu, gg, dt, n_steps, n_steps)
         out[b] = xs[-1]
     return out
 
 
-def propagate_relative(x0, servicer0, J_S_diag, dt: float, n_steps: int, *, stride: int = 1, mu: float = MU_EARTH):
+def propagate_relative(x0, servicer0, J_S_diag, dt: float, n_steps: int, *, stride: int = 1, mu: float = MU_EARTH,
+                       gravity_gradient: bool = False):
     """RK4 (``ode4``) of the relative model together with the servicer's state.
 
     Returns ``(x, s)``: the relative states ``(n_steps//stride + 1, 15)`` and the
     servicer states ``(…, 13)`` every ``stride`` steps, starting with the
-    initial ones.
+    initial ones. ``gravity_gradient``: the target's gravity-gradient torque included (:func:`joint_rhs`).
     """
     if not (np.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be positive and finite, got {dt!r}")
@@ -456,17 +493,19 @@ def propagate_relative(x0, servicer0, J_S_diag, dt: float, n_steps: int, *, stri
     s0 = np.asarray(servicer0, dtype=float)
     if x0.shape != (N_STATE,) or s0.shape != (N_ABSOLUTE,):
         raise ValueError(f"expected x0 of shape (15,) and servicer of shape (13,), got {x0.shape}, {s0.shape}")
-    return _rk4_joint(x0, s0, np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps), int(stride))
+    return _rk4_joint(x0, s0, np.asarray(J_S_diag, dtype=float), float(mu), 1.0 if gravity_gradient else 0.0, float(dt), int(n_steps), int(stride))
 
 
-def propagate_relative_batch(X, servicer0, J_S_diag, dt: float, n_steps: int = 1, mu: float = MU_EARTH) -> np.ndarray:
+def propagate_relative_batch(X, servicer0, J_S_diag, dt: float, n_steps: int = 1, mu: float = MU_EARTH, *,
+                             gravity_gradient: bool = False) -> np.ndarray:
     """Propagate a batch of relative states ``X (N, 15)`` by ``n_steps`` RK4 steps of ``dt``.
 
     Every member sees the same servicer trajectory (from ``servicer0``); used
-    to push sigma points through eq. 21 in the UKF.
+    to push sigma points through eq. 21 in the UKF. ``gravity_gradient``: as :func:`propagate_relative`.
     """
     X = np.ascontiguousarray(X, dtype=float)
-    return _rk4_batch(X, np.asarray(servicer0, dtype=float), np.asarray(J_S_diag, dtype=float), float(mu), float(dt), int(n_steps))
+    return _rk4_batch(X, np.asarray(servicer0, dtype=float), np.asarray(J_S_diag, dtype=float), float(mu), 1.0 if gravity_gradient else 0.0,
+                      float(dt), int(n_steps))
 
 
 # ---------------------------------------------------------------- LVLH relative motion (Maestrini et al. eq. 9)

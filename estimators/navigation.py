@@ -135,7 +135,7 @@ def run_navigation(
     if proxy is not None and prior is None:
         raise ValueError("the proxy measurement needs a spin prior with a rate")
     q_meas, r_meas, meas_at = _measurements_on_grid(t, tau, t_meas, q_meas, r_meas)
-    model = RelativeProcessModel(J_S_diag)
+    model = RelativeProcessModel(J_S_diag, gravity_gradient=tuning.gravity_gradient)
     filt = make_filter(filter_name, model, x0, tuning.P_0 if P0 is None else P0, tuning.Q_d(tau), gate_confidence=gate_confidence, **filter_kwargs)
     att, pos = pose_noise.sources()
 

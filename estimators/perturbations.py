@@ -58,7 +58,18 @@ from dataclasses import asdict, dataclass, replace
 import numba
 import numpy as np
 
-from estimators.dynamics import MU_EARTH, R_EARTH, absolute_rhs_nb, cross3, get3, get4, integrate_absolute, mat_t_vec, quat_to_dcm_nb
+from estimators.dynamics import (  # noqa: F401 - gravity_gradient_torque: one of this module's terms, shared with the filters' model
+    MU_EARTH,
+    R_EARTH,
+    absolute_rhs_nb,
+    cross3,
+    get3,
+    get4,
+    gravity_gradient_torque,
+    integrate_absolute,
+    mat_t_vec,
+    quat_to_dcm_nb,
+)
 from estimators.state import N_ABSOLUTE, Q_IB, R_I, V_I, W_B
 
 J2_EARTH = 1.08263e-3
@@ -99,21 +110,6 @@ class TruthPhysicsError(ValueError):
 
 
 # ---------------------------------------------------------------- the terms (compiled, on 3-tuples)
-
-
-@numba.njit(cache=True, error_model="numpy")
-def gravity_gradient_torque(r_B, J, mu):
-    """Gravity-gradient torque on a rigid body, ``τ_B = 3μ/r⁵ (r_B × J r_B)`` (Hughes 1986; Wie 2008 ch. 6).
-
-    ``r_B``: the body's position from the Earth's centre in its principal frame B (m, 3-tuple);
-    ``J``: principal inertia (3-tuple, any unit: the torque comes out in that unit × s⁻²);
-    ``mu``: m³/s². Zero when ``r_B`` lies along a principal axis, and for ``A = B = C``.
-    Returns a 3-tuple in B.
-    """
-    r2 = r_B[0] ** 2 + r_B[1] ** 2 + r_B[2] ** 2
-    k = 3.0 * mu / (r2 * r2 * np.sqrt(r2))
-    c = cross3(r_B, (J[0] * r_B[0], J[1] * r_B[1], J[2] * r_B[2]))
-    return (k * c[0], k * c[1], k * c[2])
 
 
 @numba.njit(cache=True, error_model="numpy")

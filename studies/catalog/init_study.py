@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
-from estimators.state import K_STATES, W_B, W_ST_T
+from estimators.state import W_B, W_ST_T
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, PRIOR_FIELDS, PRIOR_RUN_FIELDS, check_common, study_prior, median_interval, metric_tables, paired_error_figure,
@@ -33,7 +33,7 @@ from studies.catalog.filter_common import (
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
+from studies.sim.navigation import NavigationSetup, considered_states, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec
 from studies.engine.tables import Table
@@ -83,7 +83,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         # the paper's fixed P_0 ω block goes with its oracle; a light-curve prior brings its own covariance
         P0_w_prior=p["P0_w_prior"] if p["prior_source"] == "truth" else None, pose_noise=pose_noise(p),
         gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
-        consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
+        consider=considered_states(sc, p["truth"]), inertia_range=tuple(p["inertia_guess_range"]),
     )
     run, meas = navigate(tr, setup, rng)
     if p["record"]:

@@ -28,7 +28,7 @@ import pandas as pd
 
 from estimators.navigation import FILTERS, SOURCES
 from estimators.prior import PROXY_MODES
-from estimators.state import K_STATES, W_B
+from estimators.state import W_B
 from estimators.tuning import TUNINGS, get_tuning
 from studies.catalog.filter_common import (
     COMMON_FIELDS, COMMON_RUN_FIELDS, PRIOR_FIELDS, PRIOR_RUN_FIELDS, GROUP_LABELS, check_common, study_prior, median_interval, paired_error_figure,
@@ -37,7 +37,7 @@ from studies.catalog.filter_common import (
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.engine.io import atomic_path
 from studies.sim.metrics import GROUPS
-from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis
+from studies.sim.navigation import NavigationSetup, considered_states, error_series, navigate, one_axis
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.stats import t_interval
 from studies.engine.sweep import RunSpec
@@ -104,7 +104,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         proxy_mode=p["proxy_mode"], R_w=p["R_omega"], faults=[(p["fault_start_s"], p["fault_duration_s"])],
         pose_noise=pose_noise(p), fault_sigma_q_rad=scale * p["sigma_q_rad"],
         fault_sigma_r_m=scale * p["sigma_r_m"], gate_confidence=p["gate_confidence"], gate_start_s=p["gate_start_s"],
-        consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (), inertia_range=tuple(p["inertia_guess_range"]),
+        consider=considered_states(sc, p["truth"]), inertia_range=tuple(p["inertia_guess_range"]),
     )
     run, meas = navigate(tr, setup, rng)
     err = error_series(tr, run)

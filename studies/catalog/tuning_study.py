@@ -35,14 +35,14 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
-from estimators.state import ERROR_GROUPS, K_STATES
+from estimators.state import ERROR_GROUPS
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from studies.catalog.figures import pyplot, save_png
 from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
 from studies.sim.metrics import GROUPS
 from studies.recording.navigation import record_navigation
-from studies.sim.navigation import NavigationSetup, error_series, navigate, one_axis, run_metrics
+from studies.sim.navigation import NavigationSetup, considered_states, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
 from studies.engine.sweep import RunSpec, make_specs
 from studies.engine.tables import Table
@@ -130,7 +130,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     sc = get_scenario(p["scenario"])
     tr = simulate_truth(sc, p["duration_s"], p["dt_s"], p["truth"])
     setup = NavigationSetup(p["filter"], grid_tuning(p), pose_noise=pose_noise(p), gate_confidence=p["gate_confidence"],
-                            gate_start_s=p["gate_start_s"], consider=K_STATES if one_axis(sc.w_T0_T_rad_s) else (),
+                            gate_start_s=p["gate_start_s"], consider=considered_states(sc, p["truth"]),
                             inertia_range=tuple(p["inertia_guess_range"]))
     try:
         run, meas = navigate(tr, setup, rng)

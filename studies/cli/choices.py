@@ -15,10 +15,11 @@ FILTERS = ("ekf", "ukf")
 PRIOR_USES = ("none", "init", "proxy")
 #: When the prior's proxy measurement is pushed (:data:`estimators.prior.PROXY_MODES`).
 PROXY_MODES = ("always", "on_reject")
-#: Named filter tunings (keys of :data:`estimators.tuning.TUNINGS`) and the default (:data:`estimators.tuning.DEFAULT_TUNING`).
+#: Named filter tunings (keys of :data:`estimators.tuning.TUNINGS`) and the default per truth physics
+#: (:data:`estimators.tuning.DEFAULT_TUNINGS`).
 TUNINGS = ("consistent", "settled", "relinearized", "general-conservative", "sc1-paper", "sc2-paper", "sc3-paper", "sc4-paper",
-           "budgeted", "fixed-lag", "sc1-conservative", "sc2-conservative", "sc3-conservative", "sc4-conservative")
-DEFAULT_TUNING = "fixed-lag"
+           "budgeted", "fixed-lag", "fixed-lag-torque-free", "sc1-conservative", "sc2-conservative", "sc3-conservative", "sc4-conservative")
+DEFAULT_TUNINGS = {"torque-free": "fixed-lag-torque-free", "perturbed": "fixed-lag"}
 #: Pose noise models (:data:`estimators.measurement.NOISE_MODELS`) and the defaults of :class:`estimators.measurement.PoseNoise`:
 #: model, attitude amplitude (rad), position amplitude (m).
 NOISE_MODELS = ("gaussian", "isotropic")

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Optional
 import numpy as np
 import typer
 
-from studies.cli.choices import (DEFAULT_TUNING, FILTERS, NOISE_MODELS, POSE_NOISE_MODEL, POSE_SIGMA_Q_RAD, POSE_SIGMA_R_M, PRIOR_USES,
+from studies.cli.choices import (DEFAULT_TUNINGS, FILTERS, NOISE_MODELS, POSE_NOISE_MODEL, POSE_SIGMA_Q_RAD, POSE_SIGMA_R_M, PRIOR_USES,
                                  PROXY_MODES, TRUTH_PHYSICS, TUNINGS)
 from studies.engine import validate as v
 
@@ -213,9 +213,10 @@ def run(
                                               callback=v.path_text()),
     prior_axis: str = typer.Option("0,0,1", help="Spin axis 'x,y,z' in the target frame for --prior-json (a light curve gives no axis).", callback=v.text()),
     proxy_mode: str = typer.Option("always", help=f"When the proxy is pushed: {'|'.join(PROXY_MODES)}.", callback=v.text(PROXY_MODES)),
-    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default: '{DEFAULT_TUNING}' (real time: a "
-                                         "60-s window re-fitted every 10 s, process noise matched to the perturbed truth; with or without a prior, "
-                                         "the prior enters as the initial condition). What a spin prior selects in the demo and "
+    tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default per --truth: "
+                                         f"{', '.join(f'{k}: {n!r}' for k, n in DEFAULT_TUNINGS.items())} (real time: a 60-s window re-fitted "
+                                         "every 10 s; in orbit the gravity-gradient torque modelled and the process noise matched to what the "
+                                         "model leaves out; with or without a prior, the prior enters as the initial condition). What a spin prior selects in the demo and "
                                          "the chain study: sc1-conservative ... sc4-conservative (the paper's scenario tunings with a "
                                          "settling phase); sc1-paper ... sc4-paper as the paper has them (sc3-paper over-confident "
                                          "from the default P_0).", callback=v.text(TUNINGS)),
@@ -323,9 +324,9 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
     from estimators.measurement import PoseNoise
     from estimators.perturbations import get_truth_physics
     from estimators.prior import BodyRatePrior
-    from estimators.state import K_STATES, W_B
+    from estimators.state import W_B
     from estimators.tuning import get_tuning
-    from studies.sim.navigation import NavigationSetup, one_axis
+    from studies.sim.navigation import NavigationSetup, considered_states
     from studies.sim.scenarios import get_scenario
     from studies.sim.truth import simulate_truth
 
@@ -349,9 +350,9 @@ def _setup(*, scenario, filter_, duration, dt, prior, prior_error, prior_rate_de
         tr = dataclasses.replace(tr, x=_read_truth_file(truth_file, tr.t, sc.name))
     if spin is None and prior != "none":
         spin = BodyRatePrior.from_truth(tr.target[0, W_B], prior_error)
-    tuning_name = tuning or DEFAULT_TUNING
+    tuning_name = tuning or DEFAULT_TUNINGS[physics.name]
     tun = get_tuning(tuning_name)
-    consider = K_STATES if one_axis(sc.w_T0_T_rad_s) else ()
+    consider = considered_states(sc, physics)
     config = {"duration_s": duration, "dt_s": dt, "prior": prior, "prior_error": prior_error, "proxy_mode": proxy_mode if prior == "proxy" else None,
               "tuning": tuning_name, "fault": [list(f) for f in faults], "runs": runs, "seed": seed, "noise": noise, "sigma_q_rad": sigma_q_rad,
               "sigma_r_m": sigma_r_m, "gate_confidence": gate_confidence or None, "gate_start_s": gate_start, "k_estimated": not consider,

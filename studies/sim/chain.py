@@ -159,11 +159,10 @@ def navigate_arm(truth: Truth, filter_name: str, arm: str, spin: BodyRatePrior |
     consider ``k1, k2`` instead of estimating them (as ``lcnav run``).
     """
     from estimators.measurement import PoseNoise
-    from estimators.state import K_STATES
-    from studies.sim.navigation import NavigationSetup, navigate, one_axis
+    from studies.sim.navigation import NavigationSetup, considered_states, navigate
 
     tuning_name = arm_tuning(arm, tuning_spin if tuning_spin is not None else spin)
-    consider = K_STATES if one_axis(truth.scenario.w_T0_T_rad_s) else ()
+    consider = considered_states(truth.scenario, truth.physics)
     use = {"none": "none", "tuning": "none", "init": "init", "proxy": "proxy"}[arm]
     setup = NavigationSetup(filter_name, get_tuning(tuning_name), prior=spin, prior_use=use, proxy_mode="always", faults=faults,
                             pose_noise=PoseNoise(model="isotropic"), gate_confidence=gate_confidence, gate_start_s=gate_start_s, consider=consider)

@@ -44,7 +44,7 @@ from estimators.measurement import PoseNoise
 from estimators.navigation import run_navigation
 from estimators.process_model import RelativeProcessModel
 from estimators.state import DR_ST_T, DTHETA, K_STATES, Q_TS, R_ST_T
-from estimators.tuning import DEFAULT_TUNING, get_tuning
+from estimators.tuning import default_tuning, get_tuning
 from perception.simulated_pose import simulate_pose_measurements
 from studies.sim.metrics import fraction_in_band, nees
 
@@ -225,7 +225,7 @@ def test_ukf_rate_covariance_agrees_with_the_ekf_where_k_is_considered(truth):
     from estimators.state import DW_ST_T, N_ERROR
 
     tr = truth("SC1", DURATION_DEFAULT_S)
-    tun, rate = get_tuning(DEFAULT_TUNING), np.arange(N_ERROR)[DW_ST_T]
+    tun, rate = get_tuning(default_tuning("torque-free")), np.arange(N_ERROR)[DW_ST_T]
     E = {"ekf": [], "ukf": []}
     for i in range(N_DEFAULT):
         for name in E:

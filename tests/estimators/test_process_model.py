@@ -7,7 +7,7 @@ from estimators.attitude import random_quaternion
 from estimators.dynamics import circular_orbit_state, relative_rhs
 from estimators.error_state import boxminus, boxplus
 from estimators.process_model import RelativeProcessModel, relative_jacobian
-from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T
+from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T, W_ST_T
 
 
 def _state(rng):
@@ -30,10 +30,44 @@ def test_continuous_jacobian_matches_central_differences(rng):
         np.testing.assert_allclose(A, An, rtol=0, atol=1e-6)
 
 
+def test_gravity_gradient_part_of_the_jacobian_matches_central_differences(rng):
+    """The gravity-gradient torque's part of ``∂ẋ/∂x`` (with it minus without), against central differences of the
+    same difference of right-hand sides, to 1e-7 of its size: the part is ~1e-6 (``3n²`` at 500 km times the inertia
+    ratios' spread), which the full Jacobian's 1e-6 tolerance would not see."""
+    J_S = np.array([1.2, 1.0, 0.8])
+    for _ in range(3):
+        x, s = _state(rng)
+        A = relative_jacobian(x, s, J_S, gravity_gradient=True) - relative_jacobian(x, s, J_S)
+        An = np.empty((15, 15))
+        for i in range(15):
+            h = 1e-5 * max(1.0, abs(x[i]))
+            e = np.zeros(15)
+            e[i] = h
+            d = [relative_rhs(y, s, J_S, gravity_gradient=True) - relative_rhs(y, s, J_S) for y in (x + e, x - e)]
+            An[:, i] = (d[0] - d[1]) / (2 * h)
+        assert np.abs(A).max() > 1e-7  # the torque is there
+        np.testing.assert_allclose(A, An, rtol=0, atol=1e-7 * np.abs(A).max())
+
+
+def test_gravity_gradient_rate_is_the_truths_torque(truth):
+    """The filters' gravity-gradient ω̇ equals the truth's J⁻¹τ (estimators.perturbations) at the target's position."""
+    from estimators.perturbations import get_truth_physics, perturbing_accelerations
+
+    tr = truth("SC3", 20.0)
+    k = 7
+    f = relative_rhs(tr.x[k], tr.servicer[k], tr.J_S_diag, gravity_gradient=True) - relative_rhs(tr.x[k], tr.servicer[k], tr.J_S_diag)
+    params = get_truth_physics("perturbed").body_params("target", tr.target[0, :3])
+    gg = perturbing_accelerations(tr.target[k : k + 1], tr.J_T_diag, params)["gravity_gradient"][0]
+    assert np.linalg.norm(gg) > 1e-7
+    # the relative rate's row carries −ω̇_T (eq. 7), in T
+    np.testing.assert_allclose(-f[W_ST_T], gg, rtol=1e-6, atol=0)
+
+
 @pytest.mark.parametrize("dt", [0.5, 1.0])
-def test_discrete_error_state_jacobian_matches_central_differences(rng, dt):
+@pytest.mark.parametrize("gravity_gradient", [False, True])
+def test_discrete_error_state_jacobian_matches_central_differences(rng, dt, gravity_gradient):
     """``F = ∂(f(x ⊞ δx) ⊟ f(x))/∂δx`` of eq. 25 on the 14 error states, to 1e-6."""
-    model = RelativeProcessModel(np.array([500.0, 600.0, 400.0]))
+    model = RelativeProcessModel(np.array([500.0, 600.0, 400.0]), gravity_gradient=gravity_gradient)
     x, s = _state(rng)
     x1, F = model.propagate_with_jacobian(x, s, dt)
     np.testing.assert_allclose(x1, model.propagate(x, s, dt), rtol=0, atol=1e-12)

@@ -394,12 +394,12 @@ def test_run_and_study_help_choices_are_the_libraries_values():
     from estimators.navigation import FILTERS
     from estimators.perturbations import TRUTH_PHYSICS
     from estimators.prior import PROXY_MODES
-    from estimators.tuning import DEFAULT_TUNING, TUNINGS
+    from estimators.tuning import DEFAULT_TUNINGS, TUNINGS
     from studies.cli import choices
     from studies.sim.navigation import PRIOR_USES
 
     assert choices.FILTERS == tuple(FILTERS) and choices.PRIOR_USES == tuple(PRIOR_USES) and choices.PROXY_MODES == tuple(PROXY_MODES)
-    assert choices.TUNINGS == tuple(TUNINGS) and choices.DEFAULT_TUNING == DEFAULT_TUNING
+    assert choices.TUNINGS == tuple(TUNINGS) and choices.DEFAULT_TUNINGS == DEFAULT_TUNINGS
     assert choices.NOISE_MODELS == tuple(NOISE_MODELS) and choices.TRUTH_PHYSICS == tuple(TRUTH_PHYSICS)
     assert (choices.POSE_NOISE_MODEL, choices.POSE_SIGMA_Q_RAD, choices.POSE_SIGMA_R_M) == (PoseNoise.model, PoseNoise.sigma_q_rad, PoseNoise.sigma_r_m)
     from studies.engine.registry import STUDIES

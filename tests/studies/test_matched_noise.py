@@ -50,7 +50,34 @@ def test_the_fixed_lag_tunings_budget_is_the_matched_one():
     from estimators.tuning import MATCHED_BUDGET, get_tuning
     from studies.sim.matched_noise import matched_budget
 
-    m = matched_budget([get_scenario("SC1"), get_scenario("SC3")])
+    m = matched_budget([get_scenario("SC1"), get_scenario("SC3")], gravity_gradient=True)
     for name in ("q_alpha_rad2_s3", "q_a_m2_s3", "q_kdot_1_s"):
         assert getattr(MATCHED_BUDGET, name) == pytest.approx(getattr(m, name), rel=0.01), name
-    assert get_tuning("fixed-lag").budget is MATCHED_BUDGET
+    assert get_tuning("fixed-lag").budget is MATCHED_BUDGET and get_tuning("fixed-lag").gravity_gradient
+
+
+def test_modelling_the_gravity_gradient_leaves_the_damping_in_the_rates_prediction_errors(truths):
+    """With the gravity-gradient torque in the filters' model, the rate's prediction errors over 120 s on the perturbed truth
+    are the nutation damping's alone: smaller than without it, and equal to those of a truth with the damping but no gravity
+    gradient (the model then has nothing else to miss: J2 and drag do not act on the rate)."""
+    import dataclasses
+
+    d_without, _ = prediction_errors(truths["perturbed"], 120.0)
+    d_with, _ = prediction_errors(truths["perturbed"], 120.0, gravity_gradient=True)
+    rms = {k: np.sqrt(np.mean(d[:, DW_ST_T] ** 2)) for k, d in (("without", d_without), ("with", d_with))}
+    assert rms["with"] < 0.8 * rms["without"]
+    no_gg = dataclasses.replace(get_truth_physics("perturbed"), gravity_gradient=False)
+    d_damping, _ = prediction_errors(unmodelled_accelerations(get_scenario("SC3"), no_gg, 1800.0)[0], 120.0)
+    np.testing.assert_allclose(rms["with"], np.sqrt(np.mean(d_damping[:, DW_ST_T] ** 2)), rtol=0.05)
+
+
+def test_a_steady_push_is_matched_over_the_horizon():
+    """Eq. (4) of :mod:`estimators.process_noise`: a white acceleration of ``3 |ā|² H / 4`` has, after ``H``, the position
+    variance per axis ``q H³/3`` equal to the squared displacement ``(|ā| H²/2)²`` of the constant ``ā``."""
+    from estimators.process_noise import constant_acceleration_intensity, white_noise_acceleration
+
+    a, H = np.array([0.0, 2.3e-7, 0.0]), 900.0
+    q = constant_acceleration_intensity(a, H)
+    assert white_noise_acceleration(q, H)[0, 0] == pytest.approx((np.linalg.norm(a) * H**2 / 2) ** 2, rel=1e-12)
+    with pytest.raises(ValueError, match="horizon_s"):
+        constant_acceleration_intensity(a, 0.0)

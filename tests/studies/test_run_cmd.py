@@ -34,7 +34,7 @@ def test_run_writes_metrics_states_and_recording(tmp_path, capsys):
     assert m["nees_fraction_in_95"] is None or 0.0 <= m["nees_fraction_in_95"] <= 1.0
     assert set(m["nis_fraction_in_95"]) == {"attitude", "position"}
     assert m["nees"]["runs"] == 2 and m["nees"]["dof"] == 12  # k considered, not estimated, in SC1
-    assert m["config"]["tuning"] == "fixed-lag"  # the default, with a prior too (estimators.tuning.DEFAULT_TUNING)
+    assert m["config"]["tuning"] == "fixed-lag-torque-free"  # the torque-free world's default, with a prior too (estimators.tuning.DEFAULT_TUNINGS)
     np.testing.assert_allclose(m["config"]["prior_w_T_T_rad_s"], [0.0, 0.0, 0.0525])
     df = pd.read_parquet(out / "states.parquet")
     assert len(df) == 41
