@@ -100,14 +100,45 @@ def _relative_columns(data: _Data) -> tuple[np.ndarray, np.ndarray, int | None]:
     return cols, rhs, fixed
 
 
+def _scale_groups(data: _Data) -> np.ndarray:
+    """(N,) the scale each sample shares with a one-column basis: 0 for every calibrated curve (one w), 1 + k for relative curve k."""
+    return np.where(data.relative[data.curve], 1 + data.curve, 0)
+
+
+def _one_column_solve(B: np.ndarray, data: _Data, dB: np.ndarray | None = None):
+    """The profile of a one-column basis (a known shape) in closed form: (w (1,), s (K,), residuals (N,)[, Jacobian (N, n)]).
+
+    Every calibrated curve shares w ≥ 0 and each relative curve k has its own product c_k = s_k w ≥ 0; with a = g B/σ and
+    b = y/σ each group's scale is c = max(a·b, 0)/(a·a) and r = b − a c (the exact minimum over the scales). With no
+    calibrated curve w is the first curve's c (its s = 1). Given dB (N, n), the derivative of the residuals along each
+    column (the scale's own change included): dc = (da·b − 2c a·da)/(a·a) where c > 0, dr = −c da − a dc.
+    """
+    group = _scale_groups(data)
+    n_groups = int(data.relative.size) + 1
+    a, b = data.g * B[:, 0] / data.sigma, data.y / data.sigma
+    ab, aa = np.bincount(group, a * b, n_groups), np.bincount(group, a * a, n_groups)
+    c = np.where(aa > 0, np.maximum(ab, 0.0) / np.where(aa > 0, aa, 1.0), 0.0)
+    r = b - a * c[group]
+    k_w = 0 if (~data.relative).any() else 1 + int(np.flatnonzero(data.relative)[0])
+    w = c[k_w]
+    s = np.ones(data.relative.size)
+    rel = np.flatnonzero(data.relative)
+    s[rel] = c[1 + rel] / w if w > 0 else 0.0
+    if dB is None:
+        return np.array([w]), s, r
+    da = (data.g / data.sigma)[:, None] * dB
+    active = (c > 0)[:, None] / np.where(aa > 0, aa, 1.0)[:, None]
+    dc = np.stack([np.bincount(group, da[:, k] * b, n_groups) - 2 * c * np.bincount(group, da[:, k] * a, n_groups) for k in range(da.shape[1])], 1) * active
+    return np.array([w]), s, r, -c[group][:, None] * da - a[:, None] * dc[group]
+
+
 def _linear_solve(B: np.ndarray, data: _Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Linear parameters w ≥ 0 (m,), per-curve scales s (K,) and whitened residuals (N,) for the basis B (N, m) (module docstring)."""
+    """Linear parameters w ≥ 0 (m,), per-curve scales s (K,) and whitened residuals (N,) for the basis B (N, m) (module docstring;
+    one column: :func:`_one_column_solve`)."""
     M = data.g[:, None] * B
     m = B.shape[1]
-    if m == 1 and not data.relative.any():  # one scale w ≥ 0 for calibrated curves: the NNLS below in closed form
-        a, b = M[:, 0] / data.sigma, data.y / data.sigma
-        w = np.array([max(float(a @ b), 0.0) / max(float(a @ a), np.finfo(float).tiny)])
-        return w, np.ones(data.relative.size), b - a * w[0]
+    if m == 1:
+        return _one_column_solve(B, data)
     y, sigma = data.y.copy(), data.sigma.copy()
     for _ in range(2):  # the second pass runs with the relative data on the model's scale
         scaled = _Data(data.t_s, data.sun_I, data.obs_I, y, sigma, data.g, data.curve, data.relative, data.epoch)
@@ -132,6 +163,16 @@ def _linear_solve(B: np.ndarray, data: _Data) -> tuple[np.ndarray, np.ndarray, n
     return w, s, (data.y - s[data.curve] * model) / data.sigma
 
 
+def _right_jacobian(v: np.ndarray) -> np.ndarray:
+    """J_r(v) (3, 3) of SO(3): Exp(v + dv) ≈ Exp(v) Exp(J_r(v) dv); J_r = I − (1 − cos θ)/θ² [v]× + (θ − sin θ)/θ³ [v]×²
+    (Barfoot 2017, eq. 7.77a), its Taylor series below θ = 1e-4."""
+    theta = float(np.linalg.norm(v))
+    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    if theta < 1e-4:
+        return np.eye(3) - 0.5 * K + K @ K / 6.0
+    return np.eye(3) - (1 - np.cos(theta)) / theta**2 * K + (theta - np.sin(theta)) / theta**3 * K @ K
+
+
 class _Problem:
     """Whitened, profiled residuals as a function of the nonlinear parameters θ around a reference state.
 
@@ -145,6 +186,8 @@ class _Problem:
         self.fit_phase, self.fit_axis = fit_phase, fit_axis
         self.tau = max(np.abs(data.t_s).max(), 1.0)
         self.n = 3 + fit_phase + 2 * fit_axis
+        self.analytic = hasattr(model, "basis_gradient")  # a one-column basis (known shape) with its rotation gradient
+        self._last = None
 
     def unpack(self, theta) -> tuple[np.ndarray, float, np.ndarray]:
         theta = np.asarray(theta, dtype=float)
@@ -157,18 +200,33 @@ class _Problem:
             C_TA = C_TA @ Rotation.from_rotvec([theta[j + 1], theta[j + 2], 0.0]).as_matrix()
         return C_IP, omega, C_TA
 
-    def solve(self, theta):
+    def directions(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """Sun and observer unit directions (N, 3) in T at θ (:mod:`.spin`: s_T = C_TA R_z(φ)ᵀ C_IPᵀ s_I)."""
         C_IP, omega, C_TA = self.unpack(theta)
         phi = omega * self.data.t_s
-        sun_T = unspin(phi, self.data.sun_I @ C_IP) @ C_TA.T
-        obs_T = unspin(phi, self.data.obs_I @ C_IP) @ C_TA.T
-        return _linear_solve(self.model.basis(sun_T, obs_T), self.data)
+        return unspin(phi, self.data.sun_I @ C_IP) @ C_TA.T, unspin(phi, self.data.obs_I @ C_IP) @ C_TA.T
+
+    def solve(self, theta):
+        return _linear_solve(self.model.basis(*self.directions(theta)), self.data)
 
     def residuals(self, theta) -> np.ndarray:
+        if self.analytic:  # the value and the Jacobian in one pass of the model; least_squares asks for J at the same θ next
+            r, J = self.residuals_and_jacobian(theta)
+            self._last = (np.array(theta, dtype=float), J)
+            return r
         return self.solve(theta)[2]
 
+    def jac(self, theta) -> np.ndarray:
+        """The Jacobian (N, n) for ``least_squares`` (from the last :meth:`residuals` call at the same θ, else computed)."""
+        if self._last is not None and np.array_equal(self._last[0], theta):
+            return self._last[1]
+        return self.jacobian(theta)
+
     def jacobian(self, theta, step: float = 1e-5) -> np.ndarray:
-        """Central differences (N, n) of the profiled residuals (the linear solve re-done at each point)."""
+        """The Jacobian (N, n) of the profiled residuals: analytic in the model (:meth:`residuals_and_jacobian`) when it has
+        ``basis_gradient``, else central differences with ``step`` (the linear solve re-done at each point)."""
+        if self.analytic:
+            return self.residuals_and_jacobian(theta)[1]
         theta = np.asarray(theta, dtype=float)
         cols = []
         for k in range(self.n):
@@ -176,6 +234,44 @@ class _Problem:
             e[k] = step
             cols.append((self.residuals(theta + e) - self.residuals(theta - e)) / (2 * step))
         return np.stack(cols, axis=1)
+
+    def rotation_rates(self, theta) -> np.ndarray:
+        """Ω (N, n, 3): the rotation vector in T by which θ_k turns each sample's directions, ∂s_T/∂θ_k = Ω_k × s_T (same for o_T).
+
+        From s_T = C_TA R_z(φ)ᵀ C_IPᵀ s_I with C_IP = C_IP₀ Exp(δ), φ = ω t, ω = ω₀ + x_ω/τ, C_TA = C_TA₀ Exp(ε) and
+        d Exp(v) = Exp(v) [J_r(v) dv]× (J_r the right Jacobian of SO(3); Barfoot, *State Estimation for Robotics*, 2017, eq. 7.77a):
+        a pole-frame increment turns the directions by −C_TA R_z(φ)ᵀ J_r(δ) e_k, the rate by −a t/τ (a = C_TA e_z, the body spin
+        axis) and an axis increment by C_TA J_r(ε) e_k.
+        """
+        theta = np.asarray(theta, dtype=float)
+        C_IP, omega, C_TA = self.unpack(theta)
+        delta = np.array([theta[0], theta[1], theta[2] if self.fit_phase else 0.0])
+        phi = omega * self.data.t_s
+        c, s_ = np.cos(phi), np.sin(phi)
+        j = 2 + self.fit_phase
+        out = np.empty((phi.size, self.n, 3))
+        Jr = _right_jacobian(delta)
+        for k in range(j):
+            v = Jr[:, k]  # R_z(φ)ᵀ v, then C_TA
+            rotated = np.stack([c * v[0] + s_ * v[1], -s_ * v[0] + c * v[1], np.full(phi.size, v[2])], axis=1)
+            out[:, k] = -rotated @ C_TA.T
+        out[:, j] = -np.outer(self.data.t_s / self.tau, C_TA[:, 2])
+        if self.fit_axis:
+            Je = _right_jacobian(np.array([theta[j + 1], theta[j + 2], 0.0]))
+            out[:, j + 1:] = (C_TA @ Je[:, :2]).T[None]
+        return out
+
+    def residuals_and_jacobian(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """Profiled residuals (N,) and their Jacobian (N, n) at θ from the model's ``basis_gradient``.
+
+        The basis moves by ∂B/∂θ_k = ∇B · Ω_k (:meth:`rotation_rates`; ∇B the model's gradient under a rotation of both
+        directions, eq. 2 of :class:`~lightcurves.inversion.known_shape.KnownShapeModel`), and the closed-form profile of
+        :func:`_one_column_solve` with it: the full variable-projection derivative (Golub & Pereyra 1973), the scales' own
+        change included.
+        """
+        B, dB_rot = self.model.basis_gradient(*self.directions(theta))
+        _, _, r, J = _one_column_solve(B, self.data, np.einsum("ic,ikc->ik", dB_rot[:, 0], self.rotation_rates(theta)))
+        return r, J
 
     def state(self, theta) -> SpinState:
         """The :class:`SpinState` of θ in the conventions of :mod:`.spin` (φ₀ = χ − ψ, see below)."""
@@ -316,7 +412,8 @@ def _period_minima(row: np.ndarray, n: int) -> np.ndarray:
 
 def _fit(problem: _Problem, max_nfev: int) -> tuple[_Problem, float]:
     """Least-squares fit of θ from 0, returned re-centred at the optimum (θ = 0 there) with its χ²."""
-    fit = least_squares(problem.residuals, np.zeros(problem.n), method="trf", x_scale=1.0, diff_step=1e-6, max_nfev=max_nfev)
+    fit = least_squares(problem.residuals, np.zeros(problem.n), jac=problem.jac if problem.analytic else "2-point", method="trf", x_scale=1.0,
+                        diff_step=1e-6, max_nfev=max_nfev)
     C_IP, omega, C_TA = problem.unpack(fit.x)
     return _Problem(problem.data, problem.model, C_IP, omega, C_TA, problem.fit_phase, problem.fit_axis), 2.0 * float(fit.cost)
 
