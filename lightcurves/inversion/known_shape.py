@@ -370,12 +370,10 @@ def _beckmann_lobe(ch, cs, co, inv_a2, d_norm, inv_alpha):  # pragma: no cover -
     return lobe, lobe * (2.0 * inv_a2 / (ch2 * ch) - 4.0 / ch), D * dgs * go * q, D * gs * (dgo * q - go * q / co)
 
 
-@numba.njit(cache=True, fastmath=True)
-def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, starts, axis, sin_half, area, n, m, mat, vis_row, materials, fresnel, masks,
+def _intensity_sum(sun, obs, half, ks, ws, ko, wo, dws, dwo, starts, axis, sin_half, area, n, m, mat, vis_row, materials, fresnel, masks,
                       popcount, out, torque, grad):  # pragma: no cover - compiled
-    """Eq. (1) for each sample, ``out[j] = Σ_f``, over blocks of facets with similar normals (numba, one core: it is called
-    ~10⁴ times per inversion on a few hundred samples, where OpenMP threads cost more than they save; measured 2.2× the CPU
-    time of the serial kernel on a 3 × 600 inversion on the shared machine).
+    """Eq. (1) for each sample, ``out[j] = Σ_f``, over blocks of facets with similar normals (compiled twice below: serial, and
+    with the samples shared among the cores for large batches).
 
     A block whose normal cone (``axis``, half-angle θ) faces away from the Sun or the observer
     (``axis·s <= -sin θ``) is skipped whole: at moderate phase about three blocks in four.
@@ -386,7 +384,7 @@ def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, starts, axis, si
     vector u and a turned direction v moves by ρ·(v × u), so ∇(n·o) = o × n, ∇(m·s) = s × m, ∇(m·o) = o × m, ∇(m·h) = h × m, and
     s·h (the Fresnel factor's argument) does not move; the visible fraction moves with its table weights (:func:`_visible_fraction`).
     """
-    for j in range(sun.shape[0]):
+    for j in numba.prange(sun.shape[0]):
         sx, sy, sz = sun[j, 0], sun[j, 1], sun[j, 2]
         ox, oy, oz = obs[j, 0], obs[j, 1], obs[j, 2]
         hx, hy, hz = half[j, 0], half[j, 1], half[j, 2]
@@ -424,6 +422,14 @@ def _intensity_kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, starts, axis, si
         out[j] = acc
         if grad:
             torque[j, 0], torque[j, 1], torque[j, 2] = t0, t1, t2
+
+
+# One core for the ~10⁴ calls per inversion on a few hundred samples (the fits), where OpenMP threads cost more than they save
+# (measured 2.2× the CPU time of the serial kernel on a 3 × 600 inversion on the shared machine); the cores for the phase
+# screen's tables (~10⁵ samples a call), where each sample's sum is the same serial loop (the same result to the bit).
+_intensity_kernel = numba.njit(cache=True, fastmath=True)(_intensity_sum)
+_intensity_kernel_parallel = numba.njit(cache=True, fastmath=True, parallel=True)(_intensity_sum)
+_PARALLEL_SAMPLES = 8192  #: batches at least this large run on all cores
 
 
 def _normal_blocks(n: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -678,7 +684,8 @@ class KnownShapeModel:
         out = np.empty(len(sun))
         torque = np.zeros((len(sun), 3)) if grad else np.zeros((1, 3))
         masks = self.vis_masks if len(self.vis_masks) else np.zeros((1, 1), np.uint16)
-        _intensity_kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, *self._packed, np.ascontiguousarray(fresnel), masks, _POPCOUNT16, out, torque, grad)
+        kernel = _intensity_kernel_parallel if len(sun) >= _PARALLEL_SAMPLES else _intensity_kernel
+        kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, *self._packed, np.ascontiguousarray(fresnel), masks, _POPCOUNT16, out, torque, grad)
         return out * self.irradiance_w_m2, torque * self.irradiance_w_m2
 
     def basis(self, sun_T, obs_T) -> np.ndarray:
