@@ -24,16 +24,17 @@ the shape's).
      the rate step refined so that the phase at the span's ends moves by at most one phase step; the poles coarse to fine
      (:func:`_known_screen`: a lattice at twice the spacing, then the full lattice around its best minima). A convex stand-in
      ranks poles by another likelihood: on the SC3 seed-1 campaign it led the refinement 119° off (χ² 1.98e5, the
-     truth's 5.85e4).
-2. For a known shape, at each candidate pole: a fit from the screen's (rate, phase, axis), then brief fits at
-   the ``n_aliases`` best rate minima of that pole (cycle-count aliases between nights, which the screen cannot rank),
-   and the ``n_periods_per_pole`` best of those go on, to a fit with the full model on the refinement subsample if
-   within :data:`REFINE_REACH` (scaled Δχ²) of the best of all poles.
+     truth's 5.85e4). The known-shape screening stages (screen, alias and half-turn trials) weigh the grid samples with
+     σ² + (ε y)², ε = ``screen_rel_error`` (:func:`_tempered`): their coarse model and grid steps are model error.
+2. For a known shape, at each candidate pole: a fit from the screen's (rate, phase, axis), then brief fits along the
+   comb of cycle-count aliases between nights (which the screen cannot rank) and at the best rate minima of that pole
+   (:func:`_alias_trials`), and the ``n_periods_per_pole`` best of those go on, to a fit with the full model on the
+   refinement subsample if within :data:`REFINE_REACH` (scaled Δχ²) of the best of all poles.
 3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
    reflective) with the full model, first on ``n_refine_samples`` per curve, then — once per distinct
    optimum within :data:`REFINE_REACH` of the best — on all data, in the rotation-vector increment of the pole frame,
-   the rate, and for a known shape the body axis; covariances from the Gauss–Newton Hessian of the
-   profiled residuals; modes merged and weighted in :mod:`.posterior`.
+   the rate, and for a known shape the body axis (its Jacobian analytic: :meth:`_Problem.residuals_and_jacobian`);
+   covariances from the Gauss–Newton Hessian of the profiled residuals; modes merged and weighted in :mod:`.posterior`.
 """
 
 from __future__ import annotations
@@ -645,8 +646,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         samples. At the data's noise alone (ε = 0) a screen step's offset costs more χ² than a wrong basin: on an atlas-centaur
         night (``benchmarks/bench_inversion.py``, σ/y ≈ 1 %) the lattice pole 4° from the truth screened at χ² 5e4 against 2.7e4
         for a pole 58° off, and the search ended 145° off.
-    n_aliases : at most this many rate minima of each candidate pole's screen row fitted briefly (step 2 of the module docstring;
-        fewer when the range holds fewer cycle-count aliases between the curves' mid-times).
+    n_aliases : the rate minima of each candidate pole's screen row from which up to 4 untried ones are fitted briefly besides
+        the alias comb (step 2 of the module docstring; fewer when the range holds fewer cycle-count aliases).
     """
     lo, hi = _validate(curves, period_range_s)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
