@@ -11,8 +11,8 @@ from ``N(0, P_0)``, Gaussian pose noise with the filters' own ``R_d``, statistic
 truth flown by every run was a bias common to the runs, measured 2026-11-27: SC3 0.97 undispersed against 1.24 dispersed).
 
 Sizes (environment): ``LCNAV_BENCH_TRUTHS_RUNS`` × ``LCNAV_BENCH_TRUTHS_DURATION_S`` for the first table (30 × 600 s),
-``LCNAV_BENCH_TRUTHS_ORBIT_RUNS`` runs of one orbit (5700 s; default 20) per scenario and truth with the EKF and
-``LCNAV_BENCH_TRUTHS_ORBIT_RUNS_UKF`` (default 10) with the UKF on the perturbed truth; measurements every 5 and 10 s
+``LCNAV_BENCH_TRUTHS_ORBIT_RUNS`` runs of one orbit (5700 s; default 30) per scenario on the perturbed truth with the EKF and
+``LCNAV_BENCH_TRUTHS_ORBIT_RUNS_OTHER`` (default 10) on the torque-free truth with the EKF and on the perturbed one with the UKF; measurements every 5 and 10 s
 (``INTERVAL_CASES``, 30 runs of 600 s, both filters, the perturbed truth). Wall time on 2 cores: several hours (2026-11-29).
 """
 
@@ -31,8 +31,8 @@ from studies.sim.truth import simulate_truth
 
 RUNS = int(os.environ.get("LCNAV_BENCH_TRUTHS_RUNS", "30"))
 DURATION_S = float(os.environ.get("LCNAV_BENCH_TRUTHS_DURATION_S", "600"))
-ORBIT_RUNS = int(os.environ.get("LCNAV_BENCH_TRUTHS_ORBIT_RUNS", "20"))
-ORBIT_RUNS_UKF = int(os.environ.get("LCNAV_BENCH_TRUTHS_ORBIT_RUNS_UKF", "10"))
+ORBIT_RUNS = int(os.environ.get("LCNAV_BENCH_TRUTHS_ORBIT_RUNS", "30"))
+ORBIT_RUNS_OTHER = int(os.environ.get("LCNAV_BENCH_TRUTHS_ORBIT_RUNS_OTHER", "10"))
 ORBIT_S = 5700.0
 SCENARIOS = ("SC1", "SC3")
 PHYSICS = ("perturbed", "torque-free")
@@ -61,8 +61,8 @@ def _detail(r: dict) -> str:
 
 def run() -> str:
     t0 = time.perf_counter()
-    orbit = [(sc, p, "ekf", ORBIT_S, ORBIT_RUNS, 1.0) for sc in SCENARIOS for p in PHYSICS] if ORBIT_RUNS else []
-    orbit += [(sc, "perturbed", "ukf", ORBIT_S, ORBIT_RUNS_UKF, 1.0) for sc in SCENARIOS] if ORBIT_RUNS_UKF else []
+    orbit = [(sc, "perturbed", "ekf", ORBIT_S, ORBIT_RUNS, 1.0) for sc in SCENARIOS] if ORBIT_RUNS else []
+    orbit += [(sc, p, f, ORBIT_S, ORBIT_RUNS_OTHER, 1.0) for sc in SCENARIOS for p, f in (("torque-free", "ekf"), ("perturbed", "ukf"))] if ORBIT_RUNS_OTHER else []
     cases = [(sc, p, f, DURATION_S, RUNS, 1.0) for sc in SCENARIOS for p in PHYSICS for f in FILTERS]
     intervals = [(sc, "perturbed", f, DURATION_S, RUNS, dt) for sc, dt in INTERVAL_CASES for f in FILTERS]
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
