@@ -6,7 +6,7 @@ model describes; ``perturbed``: gravity gradient, J2, drag and nutation damping,
 (:func:`estimators.tuning.default_tuning`: ``fixed-lag`` models the gravity-gradient torque and carries the process noise
 matched to what its model leaves out; ``fixed-lag-torque-free`` has neither) — ``N`` runs at 1 s, initial errors drawn
 from ``N(0, P_0)``, Gaussian pose noise with the filters' own ``R_d``, statistics from the settling time on; seeds
-1000 + i in every row. On the perturbed truth run i starts at its own argument of latitude
+:data:`FIRST_SEED` + i in every row. On the perturbed truth run i starts at its own argument of latitude
 (:func:`studies.sim.navigation.dispersed_truth`: the runs sample the disturbance, as the chi-square bands assume; one
 truth flown by every run was a bias common to the runs, measured 2026-11-27: SC3 0.97 undispersed against 1.24 dispersed).
 
@@ -40,13 +40,16 @@ FILTERS = ("ekf", "ukf")
 #: measurement intervals beyond 1 s (issue 31 deliverable 4: the UKF survives them; both filters reported)
 INTERVAL_CASES = [(sc, dt) for sc in ("SC3", "SC4") for dt in (5.0, 10.0)]
 GROUPS = ("q", "w", "r", "v", "k")
+#: Seeds ``FIRST_SEED + i``: fresh ones — the noise budget's choices (eq. 4's horizon, no noise on k) were made looking at
+#: runs of seeds 1000–1019 (2026-11-29), so the benchmark reports on others.
+FIRST_SEED = 3000
 
 
 def _row(case: tuple) -> dict:
     """``(scenario, physics, filter, duration s, runs, dt s)`` → the consistency statistics of that world's default tuning."""
     sc, physics, f, duration, runs, dt = case
     tr = simulate_truth(get_scenario(sc), duration, dt, physics)
-    r = consistency_check(tr, f, get_tuning(default_tuning(physics)), n_runs=runs, disperse_orbit_phase=physics != "torque-free")
+    r = consistency_check(tr, f, get_tuning(default_tuning(physics)), n_runs=runs, first_seed=FIRST_SEED, disperse_orbit_phase=physics != "torque-free")
     return {**r, "truth": physics if physics == "torque-free" else f"{physics}, dispersed", "dt_s": dt}
 
 
@@ -74,7 +77,7 @@ def run() -> str:
               "|---|---|---|---|---|---|---|---|---|---|---|")
     lines = ["## Consistency of the default filters on both truths (issue 31)", "",
              f"Each world's default tuning: torque-free `{default_tuning('torque-free')}` ({get_tuning(default_tuning('torque-free')).description}); "
-             f"perturbed `{default_tuning('perturbed')}` ({get_tuning(default_tuning('perturbed')).description}). Seeds 1000 + i, statistics from "
+             f"perturbed `{default_tuning('perturbed')}` ({get_tuning(default_tuning('perturbed')).description}). Seeds {FIRST_SEED} + i, statistics from "
              f"{SETTLING_S:.0f} s; the perturbed truth dispersed (each run its own point of the orbit). NEES in band: steps whose run-mean "
              "NEES lies in its two-sided 95 % chi-square band; per block: each block's own NEES/dof (mean over runs and steps); gate: "
              "one-sided 99 % (nominal 1 %). Criterion of issue 31: ≥ 90 % of the steps in band over ≥ 1 orbit on the perturbed truth, SC1 "
