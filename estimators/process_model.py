@@ -380,7 +380,7 @@ class RelativeProcessModel:
     0.25 s steps bring it to 1e-7 m (``tests/estimators/test_process_model.py``).
     Even that is too much over an orbit: the error is a steady push on the
     relative orbit, which for a formation along the track reads like a pitch of
-    the target frame (:mod:`estimators.process_noise`, eq. 4). Measured (SC3
+    the target frame (:mod:`estimators.process_noise`, eq. 5). Measured (SC3
     torque-free, EKF with ``Q_d = 0`` from a converged start, 20 runs of one
     orbit): the joint NEES/dof rose from 1.1 to 8.8 with 0.25 s steps, to 1.42
     with 0.125 s and 1.34 with 0.0625 s; 0.125 s (16× less truncation error

@@ -74,14 +74,14 @@ what differential drag is: along-track in the orbit frame L, ``|ā| ≈ 2.3e-7 m
 orbit. Over a horizon ``H`` it moves the relative position by ``ā H²/2``, which a white acceleration of intensity ``q``
 matches in variance, ``q H³/3`` per axis, at
 
-    q = 3 |ā|² H / 4.                                                                            (4)
+    q = 3 |ā|² H / 4.                                                                            (5)
 
 The horizon is not the position channel's memory ``(r/q)^{1/4}`` (minutes): for a formation along the track, the pose
 measurements in the target frame cannot tell a pitch error of the target frame (about the orbit normal) from a radial offset
 of the servicer; only the relative orbit's dynamics separate them (a radial offset drifts along the track at ``−3/2 n x``),
 on their own time scale ``H = 1/n`` (15 min at 500 km). Measured (SC3, gravity gradient modelled, 20 runs of one orbit, EKF):
 with eq. (3)'s 1.7e-11 m²/s³ the drag's drift went into a pitch bias common to every run (+5 mrad about the orbit normal,
-attitude NEES/dof rising to 2.8); with eq. (4) at ``H = 1/n`` (3.6e-11) the attitude block stays at 0.86–1.29
+attitude NEES/dof rising to 2.8); with eq. (5) at ``H = 1/n`` (3.6e-11) the attitude block stays at 0.86–1.29
 (:func:`constant_acceleration_intensity`).
 
 References
@@ -117,7 +117,7 @@ def white_noise_acceleration(q: float, tau_s: float) -> np.ndarray:
 
 
 def constant_acceleration_intensity(a_mean, horizon_s: float) -> float:
-    """Eq. (4): ``3 |ā|² H / 4``, the white-noise intensity (unit²/s³) whose position variance over ``horizon_s`` matches the
+    """Eq. (5): ``3 |ā|² H / 4``, the white-noise intensity (unit²/s³) whose position variance over ``horizon_s`` matches the
     displacement of the constant acceleration ``a_mean`` (its vector, unit/s², or its norm), on every axis."""
     a = np.atleast_1d(np.asarray(a_mean, dtype=float))
     H = float(horizon_s)

@@ -139,6 +139,18 @@ start, the last state's moments by the window's Kalman recursion with ``Q``: :mo
 exact on a linear model, ``tests/estimators/test_fixed_lag.py``) and the recursion between fits. The EKF and the UKF keep
 their own anchors, gates and recursions.
 
+In orbit the model includes the target's gravity-gradient torque (``gravity_gradient``, since 2026-11-29;
+:func:`estimators.dynamics.joint_rhs`): known physics given the inertia ratios the filter estimates and the servicer's AODS.
+Left out, it was what made the filter over-confident over an orbit (SC3 perturbed, 10 dispersed runs: NEES/dof 2.99, the
+attitude block alone up to 10 per 500 s): the torque's part fixed in inertial space precesses the angular momentum, which in
+the tumbling target frame is a forcing at the spin frequency — where the body-frame spectrum the budget was matched to says
+there is nothing to follow — and a secular attitude drift of ~5–10 mrad against a σ of 2.7. Modelled, the same runs' attitude
+block is 0.8–1.2. ``fixed-lag-torque-free`` is the same machinery for the paper's torque-free world: no gravity gradient (there
+is none there) and ``Q_d = 0`` after the settling phase (nothing is left out): :data:`DEFAULT_TUNINGS` picks by the world, so
+the filter is told which forces exist, never their hidden parameters (inertia, damping time, area-to-mass). A filter with a
+``Q`` matched to a disturbance is conservative on a truth without it (NEES/dof → ½ in steady state, eq. 4 of
+:mod:`estimators.process_noise`), so one tuning cannot be in band in both worlds.
+
 ``MATCHED_BUDGET`` (:mod:`studies.sim.matched_noise`): the rate's intensity is the one for which the filters' own model,
 run from the true state over the filter's memory ``H``, has rate prediction errors of unit NEES against the covariance that
 intensity accumulates through the same Jacobians, with ``H = (r/q)^{1/4}`` the memory of the steady-state filter that
@@ -147,6 +159,11 @@ spectra are matched to the steady-state filter (eq. 3 of :mod:`estimators.proces
 0.063 (SC3) and 0.054 (SC1) of the ``σ, T_c`` budget's white-noise equivalent ``2 σ² T_c``: the torque turns with the
 target, and what a filter with a memory of minutes cannot average out is little of it. Before it (2026-11-27, same
 window): the σ budget itself made SC3 conservative (NEES/dof 0.69 perturbed), a tenth of it 0.962 (10 runs), none 19.4.
+Re-derived 2026-11-29 with the gravity gradient in the model: the rate's 8.05e-13 (the damping's alone, at 279 s); the
+translational one in the orbit frame, where the drag is a steady along-track push: eq. 5 of :mod:`estimators.process_noise`
+over ``1/n`` (3.85e-11, against eq. 3's 1.70e-11, with which the push went into a pitch bias of the target frame common to
+every run); none on ``k`` (the inertia is constant; the damping's random walk on ``k`` counted it twice and made the rate
+and ``k`` blocks conservative, 0.5 and 0.3–0.5). The figures below the next paragraph are from before this change.
 
 Measured 2026-11-27 (``consistency_check``, 30 runs of 600 s at 1 s, seeds 1000–1029, after 60 s; ``python -m benchmarks
 truths`` regenerates it, with one-orbit runs): mean NEES/dof [95 % t interval], steps in the 95 % band (below, above), worst run:
@@ -290,7 +307,7 @@ TUNINGS["budgeted"] = Tuning("budgeted", _q(0.0, 0.0, 0.0, 0.0, 0.0), P0_DEFAULT
 #: gravity-gradient torque (studies.sim.matched_noise.matched_budget of SC1 and SC3, two orbits, the default pose noise every
 #: 1 s, gravity_gradient=True; measured 2026-11-29): the rate's at the filter's memory, 8.05e-13 rad²/s³ (SC3, 279 s; SC1
 #: 7.39e-13 at 286 s) — the nutation damping's, 0.65 of the 1.24e-12 the gravity gradient left unmodelled asked for; the
-#: differential acceleration's in the orbit frame, its steady drag push over 1/n (eq. 4 of estimators.process_noise, 3.85e-11
+#: differential acceleration's in the orbit frame, its steady drag push over 1/n (eq. 5 of estimators.process_noise, 3.85e-11
 #: m²/s³, above eq. 3's 1.70e-11); none on k (the inertia is constant, the damping is in the rate's). The fast tumbles are
 #: not matched (SC2, SC4). ``tests/studies/test_matched_noise.py`` re-measures it.
 MATCHED_BUDGET = MatchedBudget(q_alpha_rad2_s3=8.047e-13, q_a_m2_s3=3.849e-11, q_kdot_1_s=0.0,

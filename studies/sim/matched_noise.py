@@ -23,7 +23,7 @@ own process model makes over that time. Measured directly:
    drag's are nearly steady (in T they turn with the tumble and their slow part hides at the spin harmonics): the larger of
    its spectrum matched to the filter that measures position (:func:`estimators.process_noise.matched_intensity`, eq. 3)
    and its mean's white equivalent over the relative orbit's time scale ``1/n``
-   (:func:`estimators.process_noise.constant_acceleration_intensity`, eq. 4: the drag is a constant along-track push,
+   (:func:`estimators.process_noise.constant_acceleration_intensity`, eq. 5: the drag is a constant along-track push,
    which the filter could otherwise read as a pitch of the target frame). Not by steps 1–4: the position–velocity
    prediction errors in T are mostly the rotation's (at 50 m a rate error of 2e-5 rad/s is 1e-3 m/s of relative velocity
    in the target frame, far more than J2 and drag do), and along the directions the rotation leaves alone they are

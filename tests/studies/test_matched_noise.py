@@ -72,7 +72,7 @@ def test_modelling_the_gravity_gradient_leaves_the_damping_in_the_rates_predicti
 
 
 def test_a_steady_push_is_matched_over_the_horizon():
-    """Eq. (4) of :mod:`estimators.process_noise`: a white acceleration of ``3 |ā|² H / 4`` has, after ``H``, the position
+    """Eq. (5) of :mod:`estimators.process_noise`: a white acceleration of ``3 |ā|² H / 4`` has, after ``H``, the position
     variance per axis ``q H³/3`` equal to the squared displacement ``(|ā| H²/2)²`` of the constant ``ā``."""
     from estimators.process_noise import constant_acceleration_intensity, white_noise_acceleration
 
