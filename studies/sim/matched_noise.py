@@ -142,12 +142,13 @@ def matched_budget(scenarios: list[Scenario], physics: str | TruthPhysics = "per
                          f"{', '.join(horizons)}; R of {pose_noise} every {tau_s:g} s")
 
 
-#: Orbit phases (the chaser's argument of latitude at ``t = 0``, rad) at which :func:`combina_matched_budget` measures: the
-#: differential J2 acceleration repeats every half orbit, so two phases a quarter orbit apart sample it (the Monte-Carlo runs
-#: of :mod:`studies.sim.combina_consistency` draw their own).
-COMBINA_PHASES_RAD = (0.0, 0.5 * np.pi)
+#: Orbit phases (the chaser's argument of latitude at ``t = 0``, rad) at which :func:`combina_matched_budget` measures: eight,
+#: evenly over half an orbit — J2 (through ``sin²`` of the latitude), the gravity gradient (quadratic in the radial direction)
+#: and the co-rotating atmosphere repeat every half orbit, and the Monte-Carlo runs of :mod:`studies.sim.combina_consistency`
+#: draw their phase uniformly.
+COMBINA_PHASES_RAD = tuple(float(u) for u in np.arange(8) * np.pi / 8)
 #: Record the CoMBiNa intensities are measured on, in chaser orbits (its lowest frequency lies below the filters' bands,
-#: memories of 220–520 s).
+#: memories of 90–520 s).
 COMBINA_ORBITS = 2.0
 
 
@@ -178,7 +179,12 @@ def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "p
 
 def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS) -> MatchedBudget:
     """The intensities of CoMBiNa's process noise for ``target``: eq. 3 of :mod:`estimators.process_noise` on the spectra of
-    :func:`combina_model_errors`, the largest over ``phases_rad``. Deterministic.
+    :func:`combina_model_errors` at each of ``phases_rad``, averaged over them. Deterministic.
+
+    The mean, not the largest: a run starts at a random phase, so the disturbance the filter meets is a mixture over phases,
+    whose variance is the mean of the phases' variances; to first order the error a fixed filter makes is linear in the
+    disturbance's spectral level, so the intensity matched to the mixture is the mean of the phases' (they range over 2.3× for
+    the translation, 1.25× for the attitude: a run's NEES depends on its phase, and the run-mean NEES on the mean).
 
     Matched to the closed loop's measurements (the simulated registration's own noise, :class:`perception.simulated_bcpd.SimulatedBCPD`,
     every step ``τ``): ``r = σ_r² τ`` (position, m² s) and ``r = σ_a² τ`` (attitude angle, rad² s). ``q_kdot_1_s`` is 0: the inertia
@@ -187,10 +193,11 @@ def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=C
     from perception.simulated_bcpd import SimulatedBCPD
 
     source = SimulatedBCPD(np.random.default_rng(0))
-    q = np.zeros(2)
+    q = []
     for u in phases_rad:
         tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits)
-        q = np.maximum(q, [matched_intensity(*_axis_psd(alpha_T, tau), source.attitude_sigma_rad**2 * tau),
-                           matched_intensity(*_axis_psd(a_L, tau), source.position_sigma_m**2 * tau)])
-    return MatchedBudget(q_alpha_rad2_s3=float(q[0]), q_a_m2_s3=float(q[1]), source=f"combina_matched_budget of COMBINA-{target}, {physics} truth, "
-                         f"{orbits:g} orbits at phases {', '.join(f'{u:.3g}' for u in phases_rad)} rad; R of the simulated registration every {tau:.3g} s")
+        q.append([matched_intensity(*_axis_psd(alpha_T, tau), source.attitude_sigma_rad**2 * tau),
+                  matched_intensity(*_axis_psd(a_L, tau), source.position_sigma_m**2 * tau)])
+    q_alpha, q_a = np.mean(q, axis=0)
+    return MatchedBudget(q_alpha_rad2_s3=float(q_alpha), q_a_m2_s3=float(q_a), source=f"combina_matched_budget of COMBINA-{target}, {physics} truth, "
+                         f"{orbits:g} orbits, mean over {len(phases_rad)} orbit phases; R of the simulated registration every {tau:.3g} s")
