@@ -218,3 +218,33 @@ def test_budgeted_filters_are_not_over_confident_on_the_torque_free_truth(asym):
     the attitude filter's steps below the band), never over-confident: ≤ 5 % of the steps above the band."""
     band = _nees_in_band([run for run, _ in asym])
     assert band["translation"][1] <= 0.05 and band["attitude"][1] <= 0.05, band
+
+
+def test_axisymmetric_start_uses_the_initial_rate_and_a_vetted_axis(truths):
+    """The switch (§V.C) starts ``Γ/A`` from the initial estimate's ``|ω̂_0|`` (eq. 48), not from the attitude filter's rate, which
+    registrations with a random roll about the axis can drive anywhere (0.22 rad/s against Γ/A = 1.0e-3 on a benchmark seed);
+    and the axis from the median of the last three registrations, so that one misaligned among them (here turned by 90°) does not
+    start it off: within 3σ of ``P_0`` in ``Γ/A``, and the axis no farther off than the worse of the two good registrations."""
+    from estimators.attitude import quat_multiply, rotvec_to_quat
+    from studies.sim.combina import OMEGA, _ClosedLoop, _start_axisymmetric, angular_momentum_I, make_source, quat_to_dcm
+
+    truth = truths["symmetric"]
+    cfg = CombinaConfig(target="symmetric", seed=3)
+    rng, rng_meas = (np.random.default_rng(s) for s in np.random.SeedSequence(3).spawn(2))
+    loop = _ClosedLoop(cfg, truth, make_source(cfg, rng_meas, truth), rng)
+    i = 30
+    noise = [rotvec_to_quat(np.deg2rad(2.0) * rng.normal(size=3)) for _ in range(3)]
+    turned = rotvec_to_quat(np.deg2rad(90.0) * np.array([1.0, 0.0, 0.0]))
+    loop.last_att_meas = [(truth.t[j], quat_multiply(truth.q_IT[j], dq)) for j, dq in zip((i - 2, i - 1, i), (noise[0], turned, noise[2]))]
+    J_true = quat_to_dcm(truth.q_IT[i])[:, 1]
+
+    def angle_deg(J):
+        return np.rad2deg(np.arccos(np.clip(J @ J_true, -1.0, 1.0)))
+
+    J_meas = loop._measured_axis()
+    good = [angle_deg(quat_to_dcm(q)[:, 1]) for k, (_, q) in enumerate(loop.last_att_meas) if k != 1]  # each within its 2°-per-axis noise
+    assert angle_deg(J_meas) <= max(good) + 0.5 and angle_deg(quat_to_dcm(loop.last_att_meas[1][1])[:, 1]) > 45.0
+    loop.att.core.x[OMEGA] = 0.2 * np.ones(3) / np.sqrt(3.0)  # what random-roll registrations did to the attitude filter
+    axi, _ = _start_axisymmetric(cfg, truth, i, J_meas, loop.x0_a[OMEGA], rng)
+    g_true = np.linalg.norm(angular_momentum_I(truth.q_IT[i], truth.w_T[i], truth.J_T)) / truth.J_T[0]
+    assert abs(axi.x[2] - g_true) <= 3.0 * np.sqrt(axi.P[2, 2])
