@@ -115,8 +115,11 @@ def _filter_stats(nees: np.ndarray, dof: int, confidence: float) -> dict:
     per_run = np.nanmean(nees[ran], axis=1) / dof
     iv = t_interval(per_run, confidence)
     b = band_fractions(nees[ran], dof, confidence)
+    n = np.sum(np.isfinite(nees[ran]), axis=0)
+    epoch_mean = np.where(n > 0, np.nansum(nees[ran], axis=0) / np.maximum(n, 1), np.nan) / dof
     return {"dof": dof, "runs": int(ran.sum()), "nees_in_band": b["in"], "nees_below": b["below"], "nees_above": b["above"], "epochs": b["epochs"],
-            "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo, "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(np.max(per_run))}
+            "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo, "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(np.max(per_run)),
+            "per_run_nees_per_dof": per_run, "epoch_mean_nees_per_dof": epoch_mean}
 
 
 def _rate(k: int, n: int, confidence: float, key: str) -> dict:
