@@ -60,32 +60,30 @@ import numpy as np
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_mrp, quat_to_rotvec
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import euler_rhs
-from estimators.process_noise import DisturbanceBudget
+from estimators.process_noise import MatchedBudget, white_noise_acceleration
 
 #: Layout of the attitude state.
 SIGMA, OMEGA, K = slice(0, 3), slice(3, 6), slice(6, 8)
 
 
-def attitude_process_noise(dt_s: float, budget: DisturbanceBudget, *, k_rate_per_s: float = 1e-4) -> np.ndarray:
+def attitude_process_noise(dt_s: float, budget: MatchedBudget, *, k_rate_per_s: float = 1e-4) -> np.ndarray:
     """``Q`` (8×8) of one prediction over ``dt_s`` from the disturbance budget of what eq. 29 leaves out.
 
-    * ``[δσ, ω]``: the target's unmodelled angular acceleration (gravity-gradient torque, nutation damping;
-      ``budget.sigma_alpha_rad_s2`` per axis, correlation time ``budget.correlation_time_s``) as the
-      white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1, ``q = 2 σ² T_c``):
-      per axis ``Q_θθ = q τ³/3``, ``Q_θω = q τ²/2``, ``Q_ωω = q τ``, with the attitude block taken to the
-      error MRP (``δσ ≈ δθ/4``: ``Q_σσ = Q_θθ/16``, ``Q_σω = Q_θω/4``);
-    * ``k``: the ratios are constant for a rigid body, but the filter would
-      otherwise drive their variance to zero while the torque-free model
-      (eq. 29) is only an approximation; a random walk of
-      ``k_rate_per_s`` (1/√s) keeps them adjustable: ``Q_k = k_rate² Δt I``.
-      With 1e-4, a 3 s step adds 3e-8, i.e. a 1-σ wander of 0.008 over an
-      orbit (5,800 s) — far below the 0.1 tolerance of the studies; 1e-5
-      left k's final NEES over 10 seeds above its χ² band
-      (``tests/studies/test_combina.py``).
+    * ``[δσ, ω]``: the target's unmodelled angular acceleration (gravity-gradient torque, nutation damping) as the
+      white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1) with the budget's matched intensity
+      ``q = budget.q_alpha_rad2_s3`` per axis (its eq. 3, matched to a filter that measures the attitude,
+      :func:`studies.sim.matched_noise.combina_matched_budget`): per axis ``Q_θθ = q τ³/3``, ``Q_θω = q τ²/2``,
+      ``Q_ωω = q τ``, with the attitude block taken to the error MRP (``δσ ≈ δθ/4``: ``Q_σσ = Q_θθ/16``, ``Q_σω = Q_θω/4``);
+    * ``k``: the ratios are constant for a rigid body (in both truths: the damping is a torque), so the budget has nothing
+      for them; a random walk of ``k_rate_per_s`` (1/√s), ``Q_k = k_rate² Δt I``, keeps them adjustable while the
+      torque-free model (eq. 29) is only an approximation. With 1e-4, a 3 s step adds 3e-8, i.e. a 1-σ wander of 0.008
+      over an orbit (5,800 s) — far below the 0.1 tolerance of the studies. With the budget's ``q`` on ``ω`` it changes
+      nothing measurable on the eq. 47 target (k's NEES over an orbit, 10 runs per truth: the same to 0.02 with and
+      without it); without process noise on ``ω``, 1e-5 left k's final NEES over 10 seeds above its χ² band.
     """
     if not (np.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
-    b = budget.axis_block(budget.sigma_alpha_rad_s2, dt_s) * np.array([[1.0 / 16.0, 0.25], [0.25, 1.0]])
+    b = white_noise_acceleration(budget.q_alpha_rad2_s3, dt_s) * np.array([[1.0 / 16.0, 0.25], [0.25, 1.0]])
     Q = np.zeros((8, 8))
     Q[:6, :6] = np.kron(b, np.eye(3))
     Q[K, K] = float(k_rate_per_s) ** 2 * dt_s * np.eye(2)

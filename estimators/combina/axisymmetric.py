@@ -43,18 +43,18 @@ import numpy as np
 from estimators.attitude import dcm_to_mrp, mrp_to_dcm
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import axis_from_spherical, axisymmetric_rhs, spherical_from_axis
-from estimators.process_noise import DisturbanceBudget
+from estimators.process_noise import MatchedBudget
 
 
-def axisymmetric_process_noise(dt_s: float, budget: DisturbanceBudget, gamma_over_a_rad_s: float, n_states: int = 3) -> np.ndarray:
+def axisymmetric_process_noise(dt_s: float, budget: MatchedBudget, gamma_over_a_rad_s: float, n_states: int = 3) -> np.ndarray:
     """``Q`` (n_states × n_states) of one prediction over ``dt_s`` for ``[φ, δ, Γ/A(, σ_IΓ)]`` from the disturbance budget.
 
-    Eqs 35–40 hold ``Γ`` constant; an unmodelled torque (gravity gradient: ``budget.sigma_alpha_rad_s2`` as an angular
-    acceleration ``α = τ/A`` per axis) changes ``Γ/A`` at ``α`` along ``Γ`` and turns ``Γ`` at ``α/(Γ/A)`` across it,
-    which tilts the precession cone of ``J`` about the fixed ``I_Γ`` by as much. Both enter as random walks with the
-    budget's white-noise equivalent ``q = σ² max(min(2 T_c, H), τ)`` (:meth:`estimators.process_noise.DisturbanceBudget.intensity`):
-    ``Q_ΓΓ = q τ`` and ``Q_φφ = Q_δδ = q τ / (Γ/A)²`` — an order-of-magnitude map of the cone's tilt onto the two angles
-    (``φ``'s own ``1/cos δ`` is left out), stated as such. ``σ_IΓ`` is a constant of the model: no noise.
+    Eqs 35–40 hold ``Γ`` constant; an unmodelled torque (gravity gradient: an angular acceleration ``α = τ/A`` of matched
+    intensity ``q = budget.q_alpha_rad2_s3`` per axis, :mod:`estimators.process_noise` eq. 3) changes ``Γ/A`` at ``α`` along
+    ``Γ`` and turns ``Γ`` at ``α/(Γ/A)`` across it, which tilts the precession cone of ``J`` about the fixed ``I_Γ`` by as
+    much. Both enter as random walks: ``Q_ΓΓ = q τ`` and ``Q_φφ = Q_δδ = q τ / (Γ/A)²`` — an order-of-magnitude map of the
+    cone's tilt onto the two angles (``φ``'s own ``1/cos δ`` is left out), stated as such. ``σ_IΓ`` is a constant of the
+    model: no noise.
     """
     if not (np.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
@@ -62,7 +62,7 @@ def axisymmetric_process_noise(dt_s: float, budget: DisturbanceBudget, gamma_ove
         raise ValueError(f"gamma_over_a_rad_s: {gamma_over_a_rad_s!r}: expected a positive, finite precession rate in rad/s")
     if n_states not in (3, 6):
         raise ValueError(f"n_states: {n_states!r}: expected 3 (I_Γ known) or 6 (I_Γ estimated)")
-    qt = budget.intensity(budget.sigma_alpha_rad_s2, dt_s) * dt_s
+    qt = budget.q_alpha_rad2_s3 * dt_s
     Q = np.zeros((n_states, n_states))
     Q[0, 0] = Q[1, 1] = qt / gamma_over_a_rad_s**2
     Q[2, 2] = qt
@@ -72,6 +72,21 @@ def axisymmetric_process_noise(dt_s: float, budget: DisturbanceBudget, gamma_ove
 def wrap_pi(a):
     """Angle(s) wrapped to ``[-π, π)``."""
     return (np.asarray(a, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def chart_difference(phi_a, delta_a, phi_b, delta_b) -> tuple[np.ndarray, np.ndarray]:
+    """``(φ_a − φ_b, δ_a − δ_b)`` to the representative of ``b``'s direction nearest to ``a`` (rad).
+
+    :func:`estimators.dynamics.axis_from_spherical` is 2π-periodic in both angles and gives the same direction at
+    ``(φ + π, π − δ)``: the filter's ``δ`` is not confined to ``[−π/2, π/2]`` (eq. 40's ``δ̇ = −(Γ/A) cos φ`` carries it over
+    the pole ``δ = ±π/2``), so an estimate past the pole and a truth in the principal range describe the same axis with
+    angles that differ by up to π. Of the two branches, each wrapped to ``[−π, π)``, the one with the smaller
+    ``Δφ² + Δδ²`` is returned.
+    """
+    d1 = wrap_pi(np.subtract(phi_a, phi_b)), wrap_pi(np.subtract(delta_a, delta_b))
+    d2 = wrap_pi(np.subtract(phi_a, phi_b) - np.pi), wrap_pi(np.subtract(delta_a, np.pi) + delta_b)
+    second = d2[0] ** 2 + d2[1] ** 2 < d1[0] ** 2 + d1[1] ** 2
+    return np.where(second, d2[0], d1[0]), np.where(second, d2[1], d1[1])
 
 
 def gamma_frame_dcm(Gamma_I, J_I=None) -> np.ndarray:

@@ -25,7 +25,7 @@ import numpy as np
 
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
-from estimators.process_noise import DisturbanceBudget
+from estimators.process_noise import MatchedBudget, white_noise_acceleration
 
 
 @dataclass(frozen=True)
@@ -50,17 +50,19 @@ SI_UNITS = ScaledUnits(TU_s=1.0, LU_m=1.0)
 """The identity scaling: the filter runs in SI."""
 
 
-def translational_process_noise(dt_s: float, budget: DisturbanceBudget) -> np.ndarray:
+def translational_process_noise(dt_s: float, budget: MatchedBudget) -> np.ndarray:
     """``Q`` (6×6, SI) over ``[r_L, v_L]`` for one prediction of ``dt_s`` s from the disturbance budget.
 
-    Eq. 9 is the two-body relative motion; what it leaves out (differential J2, drag, solar pressure:
-    ``budget.sigma_a_m_s2`` per LVLH axis, correlation time ``budget.correlation_time_s``) enters as the
-    white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1): per axis
-    ``Q_rr = q τ³/3``, ``Q_rv = q τ²/2``, ``Q_vv = q τ`` with ``q = 2 σ² T_c``.
+    Eq. 9 is the two-body relative motion about a circular reference orbit; what it leaves out (differential J2 and drag,
+    and the chaser's own J2-perturbed orbit, which moves the LVLH frame off the circular one) enters as the
+    white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1) with the budget's matched intensity
+    ``q = budget.q_a_m2_s3`` per LVLH axis (its eq. 3: the white noise that gives the steady-state filter the velocity-error
+    variance the unmodelled acceleration's spectrum gives it, :func:`studies.sim.matched_noise.combina_matched_budget`):
+    ``Q_rr = q τ³/3``, ``Q_rv = q τ²/2``, ``Q_vv = q τ`` per axis, no coupling between axes.
     """
     if not (np.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
-    return np.kron(budget.axis_block(budget.sigma_a_m_s2, dt_s), np.eye(3))
+    return np.kron(white_noise_acceleration(budget.q_a_m2_s3, dt_s), np.eye(3))
 
 
 class TranslationalUKF:

@@ -36,6 +36,13 @@ own process model makes over that time. Measured directly:
    unmodelled and the inertia ratios take the old random walk (:func:`estimators.process_noise.kdot_from_dissipation`).
 
 The largest of the scenarios' intensities is the budget (:func:`matched_budget`), as for the ``σ`` budget.
+
+CoMBiNa's filters (Maestrini et al., JGCD 2023) propagate the relative translation with the NERM of a circular reference orbit
+(their eq. 9) and the attitude with torque-free Euler equations (eq. 29); :func:`combina_matched_budget` measures, along the
+COMBINA scenario's perturbed truth at the filters' own step, what each model gets wrong over one step — the unmodelled
+acceleration ``(x_{j+1} − f_τ(x_j))_rate / τ`` — and matches its spectrum to the filter that measures the position or the
+attitude (:func:`estimators.process_noise.matched_intensity`, eq. 3 there). Step 5's argument holds for both: each filter
+measures the quantity whose second derivative is disturbed, so eq. 3's double integrator is the filter, axis by axis.
 """
 
 from __future__ import annotations
@@ -117,9 +124,10 @@ def matched_angular(truth, r: float, *, resolution_s: float = 2.0, gravity_gradi
     return q_of[hi], hi
 
 
-def _axis_psd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided spectral density (Hann window, mean kept: a constant acceleration is a disturbance too), mean over the 3 axes."""
-    f, G = periodogram(a, fs=1.0 / BUDGET_DT_S, window="hann", detrend=False, axis=0)
+def _axis_psd(a: np.ndarray, dt_s: float = BUDGET_DT_S) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided spectral density of ``a`` (n, 3) sampled every ``dt_s`` (Hann window, mean kept: a constant acceleration is a
+    disturbance too), mean over the 3 axes."""
+    f, G = periodogram(a, fs=1.0 / dt_s, window="hann", detrend=False, axis=0)
     return f, G.mean(axis=1)
 
 
@@ -144,3 +152,64 @@ def matched_budget(scenarios: list[Scenario], physics: str | TruthPhysics = "per
         horizons.append(f"{scenario.name} {H:g} s")
     return MatchedBudget(*map(float, q), source=f"matched_budget of the {physics.name} truth over {duration_s:g} s, horizons "
                          f"{', '.join(horizons)}; R of {pose_noise} every {tau_s:g} s")
+
+
+#: Orbit phases (the chaser's argument of latitude at ``t = 0``, rad) at which :func:`combina_matched_budget` measures: eight,
+#: evenly over half an orbit — J2 (through ``sin²`` of the latitude), the gravity gradient (quadratic in the radial direction)
+#: and the co-rotating atmosphere repeat every half orbit, and the Monte-Carlo runs of :mod:`studies.sim.combina_consistency`
+#: draw their phase uniformly.
+COMBINA_PHASES_RAD = tuple(float(u) for u in np.arange(8) * np.pi / 8)
+#: Record the CoMBiNa intensities are measured on, in chaser orbits (its lowest frequency lies below the filters' bands,
+#: memories of 90–520 s).
+COMBINA_ORBITS = 2.0
+
+
+def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "perturbed", orbits: float = COMBINA_ORBITS) -> tuple:
+    """``(τ, a_L (n, 3) m/s², α_T (n, 3) rad/s²)``: the one-step errors of CoMBiNa's process models along ``target``'s truth.
+
+    At the closed loop's step ``τ`` (:class:`studies.sim.combina.CombinaConfig`'s rate): ``a_L`` is what eq. 9 (RK4, as the
+    translational filter integrates it) leaves out of the LVLH relative velocity, ``α_T`` what eq. 29 with the target's own
+    inertia ratios (:func:`estimators.combina.attitude.propagate_rigid_body`, as the attitude filter integrates it) leaves out
+    of the body rate, each per unit time. On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
+    rad/s²); on the perturbed one, gravity gradient, J2, drag and damping.
+    """
+    from estimators.combina.attitude import propagate_rigid_body
+    from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
+    from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, simulate_lvlh_truth, target_k
+
+    tau = 1.0 / CombinaConfig().rate_hz
+    n = int(np.floor(orbits * 2.0 * np.pi * TU / tau))
+    tr = simulate_lvlh_truth(target, n * tau, tau, k=target_k(target), physics=physics, arg_latitude_rad=arg_latitude_rad)
+    X = np.concatenate([tr.r_L, tr.v_L], axis=1)
+    Y = X[:-1]
+    for _ in range(int(np.ceil(tau / 10.0))):  # the filter's largest RK4 step, 10 s
+        Y = rk4_step(nerm_rhs, 0.0, Y, tau / np.ceil(tau / 10.0), N_RAD_S, R_T_M, MU_EARTH)
+    Z = np.concatenate([tr.q_IT, tr.w_T, np.broadcast_to(tr.k, (tr.t.size, 2))], axis=1)
+    W = propagate_rigid_body(Z[:-1], tau)
+    return tau, (X[1:, 3:] - Y[:, 3:]) / tau, (Z[1:, 4:7] - W[:, 4:7]) / tau
+
+
+def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS) -> MatchedBudget:
+    """The intensities of CoMBiNa's process noise for ``target``: eq. 3 of :mod:`estimators.process_noise` on the spectra of
+    :func:`combina_model_errors` at each of ``phases_rad``, averaged over them. Deterministic.
+
+    The mean, not the largest: a run starts at a random phase, so the disturbance the filter meets is a mixture over phases,
+    whose variance is the mean of the phases' variances; to first order the error a fixed filter makes is linear in the
+    disturbance's spectral level, so the intensity matched to the mixture is the mean of the phases' (they range over 2.3× for
+    the translation, 1.25× for the attitude: a run's NEES depends on its phase, and the run-mean NEES on the mean).
+
+    Matched to the closed loop's measurements (the simulated registration's own noise, :class:`perception.simulated_bcpd.SimulatedBCPD`,
+    every step ``τ``): ``r = σ_r² τ`` (position, m² s) and ``r = σ_a² τ`` (attitude angle, rad² s). ``q_kdot_1_s`` is 0: the inertia
+    ratios are constant in the truth (the damping is a torque, in ``α_T``).
+    """
+    from perception.simulated_bcpd import SimulatedBCPD
+
+    source = SimulatedBCPD(np.random.default_rng(0))
+    q = []
+    for u in phases_rad:
+        tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits)
+        q.append([matched_intensity(*_axis_psd(alpha_T, tau), source.attitude_sigma_rad**2 * tau),
+                  matched_intensity(*_axis_psd(a_L, tau), source.position_sigma_m**2 * tau)])
+    q_alpha, q_a = np.mean(q, axis=0)
+    return MatchedBudget(q_alpha_rad2_s3=float(q_alpha), q_a_m2_s3=float(q_a), source=f"combina_matched_budget of COMBINA-{target}, {physics} truth, "
+                         f"{orbits:g} orbits, mean over {len(phases_rad)} orbit phases; R of the simulated registration every {tau:.3g} s")

@@ -10,11 +10,11 @@ from estimators.attitude import attitude_angle, mrp_to_quat, quat_conjugate, qua
 import estimators.combina.attitude as ca
 from estimators.combina.attitude import AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, physical_k, project_k_physical, rate_from_attitudes
 from estimators.dynamics import inertia_from_k, integrate_absolute
-from estimators.process_noise import DisturbanceBudget
+from estimators.process_noise import MatchedBudget
 
 K = np.array([0.03, -0.1])
-#: an unmodelled angular acceleration of 1e-7 rad/s² held over each step (no correlation time)
-WHITE = DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=0.0)
+#: an unmodelled angular acceleration of 1e-7 rad/s² held over each 3 s step: the white-noise intensity q = σ² τ
+WHITE = MatchedBudget(q_alpha_rad2_s3=1e-14 * 3.0, q_a_m2_s3=0.0)
 W0 = np.array([-0.3953, -0.7065, -0.8153]) / 963.65
 
 
@@ -71,8 +71,8 @@ def test_innovation_across_the_shadow_boundary_is_the_small_error():
 def test_process_noise_keeps_k_adjustable():
     """Q adds variance to ω and k per step (without it k's variance collapses); a 3 s step adds 3e-8 to k.
 
-    With no correlation time the budget's white-noise equivalent is a constant acceleration over the step
-    (``q = σ² τ``): ``Q_ωω = (σ τ)²``, and the attitude block is the error MRP's, ``Q_θθ/16 = q τ³/48``."""
+    A white acceleration of intensity ``q = σ² τ`` (a constant 1e-7 rad/s² over the 3 s step) gives ``Q_ωω = q τ = (σ τ)²``,
+    and the attitude block is the error MRP's, ``Q_θθ/16 = q τ³/48`` (eq. 1 of :mod:`estimators.process_noise`)."""
     Q = attitude_process_noise(3.0, WHITE)
     assert Q.shape == (8, 8) and np.all(np.diag(Q) > 0)
     assert Q[6, 6] == pytest.approx(1e-8 * 3.0)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from estimators.attitude import quat_to_dcm, random_quaternion, rotvec_to_quat, quat_multiply
-from estimators.combina.axisymmetric import AxisymmetricUKF, frame_mrp, gamma_frame_dcm, spin_quantities, wrap_pi
+from estimators.combina.axisymmetric import AxisymmetricUKF, chart_difference, frame_mrp, gamma_frame_dcm, spin_quantities, wrap_pi
 from estimators.dynamics import axis_from_spherical, integrate_absolute, spherical_from_axis
 
 J_AXI = np.array([4.0, 1.0, 4.0])  # A = C = 4, B = 1: symmetry axis = body y
@@ -111,3 +111,17 @@ def test_bad_input():
     with pytest.raises(ValueError, match="var_rad2"):
         f.innovation([0, 1, 0], 0.0)
     assert axis_from_spherical(0.0, 0.0) @ np.array([1.0, 0, 0]) == pytest.approx(1.0)
+
+
+def test_chart_difference_finds_the_same_axis_on_the_other_branch():
+    """``(φ + π, π − δ)`` and ``(φ, δ + 2π)`` are the axis ``(φ, δ)``: an estimate carried over the pole (δ beyond ±π/2) differs
+    from the truth by its small error only, not by up to π; a plain wrapped difference reported π."""
+    rng = np.random.default_rng(3)
+    phi, delta = rng.uniform(-np.pi, np.pi, 200), rng.uniform(-0.5 * np.pi, 0.5 * np.pi, 200)
+    err = 1e-3 * rng.normal(size=(2, 200))
+    for phi_hat, delta_hat in ((phi + err[0], delta + err[1]), (phi + np.pi + err[0], np.pi - delta + err[1]),
+                               (phi + np.pi + err[0], np.pi - delta + err[1] - 4.0 * np.pi)):
+        np.testing.assert_allclose(axis_from_spherical(phi_hat, delta_hat), axis_from_spherical(phi, delta), atol=3e-3)
+        d_phi, d_delta = chart_difference(phi_hat, delta_hat, phi, delta)
+        np.testing.assert_allclose(d_phi, err[0], atol=1e-12)
+        np.testing.assert_allclose(d_delta, err[1], atol=1e-12)  # in the estimate's own chart, where its covariance lives

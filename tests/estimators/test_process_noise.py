@@ -8,7 +8,7 @@ from scipy.stats import chi2
 from estimators.ekf import ExtendedKalmanFilter
 from estimators.measurement import LinearMeasurement
 from estimators.process_model import LinearProcessModel, RelativeProcessModel
-from estimators.process_noise import DisturbanceBudget, white_noise_acceleration
+from estimators.process_noise import DisturbanceBudget, MatchedBudget, white_noise_acceleration
 from estimators.state import DK, DR_ST_T, DTHETA, DV_ST_T, DW_ST_T
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import simulate_truth
@@ -119,29 +119,37 @@ def test_budgeted_tuning_covers_the_perturbed_truths_disturbances(scenario):
     assert get_tuning("budgeted").budget is PERTURBED_BUDGET
 
 
-def test_horizon_caps_the_white_noise_equivalent_of_a_slow_disturbance():
-    """Over t ≪ T_c a Gauss–Markov acceleration is a constant (variance σ² t²); ``horizon_s`` H matches it at H: q = σ² H,
-    and the random walk's variance after H equals the constant's, σ² H²; without a horizon q = 2 σ² T_c."""
-    slow = DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=2e-7, correlation_time_s=850.0)
-    capped = DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=2e-7, correlation_time_s=850.0, horizon_s=300.0)
-    assert slow.intensity(1e-7, 3.0) == pytest.approx(2 * 1e-14 * 850.0)
-    q = capped.intensity(1e-7, 3.0)
-    assert q * 300.0 == pytest.approx((1e-7 * 300.0) ** 2)
-    assert capped.intensity(1e-7, 500.0) == pytest.approx(1e-14 * 500.0)  # never below one step's constant acceleration
-    with pytest.raises(ValueError, match="horizon_s"):
-        DisturbanceBudget(sigma_alpha_rad_s2=1e-7, sigma_a_m_s2=0.0, horizon_s=0.0)
-
-
 def test_combina_translational_noise_is_eq_1_per_lvlh_axis():
     """CoMBiNa's translational Q over [r_L, v_L]: eq. 1 per axis, no coupling between axes, positive definite."""
     from estimators.combina.translation import translational_process_noise
 
-    b = DisturbanceBudget(sigma_alpha_rad_s2=0.0, sigma_a_m_s2=1e-7, correlation_time_s=850.0, horizon_s=300.0)
+    b = MatchedBudget(q_alpha_rad2_s3=0.0, q_a_m2_s3=5.77e-12)
     Q = translational_process_noise(3.0, b)
-    block = white_noise_acceleration(1e-14 * 300.0, 3.0)
+    block = white_noise_acceleration(5.77e-12, 3.0)
     for i in range(3):
         assert Q[np.ix_([i, 3 + i], [i, 3 + i])] == pytest.approx(block, rel=1e-12)
     off = Q.copy()
     for i in range(3):
         off[np.ix_([i, 3 + i], [i, 3 + i])] = 0.0
     assert np.all(off == 0.0) and np.linalg.eigvalsh(Q).min() > 0
+
+
+@pytest.mark.parametrize("q_over_r", [1e-9, 1.0, 1e6])
+def test_a_matched_filter_has_half_the_nees_where_the_disturbance_is_absent(q_over_r):
+    """Eq. (4): the steady-state Kalman–Bucy filter of eq. (2) (gains ``K = [√2 ω_n, ω_n²]``, ``ω_n = (q/r)^{1/4}``) splits its
+    error covariance into the parts driven by the acceleration and by the measurement noise (two Lyapunov equations, solved by
+    scipy); without the acceleration the error is the second part alone, and its expected NEES per state is 1/2 whatever q/r:
+    3/4 of the position variance and 1/4 of the rate variance. Checked against the Riccati solution of the same filter."""
+    from scipy.linalg import solve_continuous_are, solve_continuous_lyapunov
+
+    r = 0.27
+    q = q_over_r * r
+    wn = q_over_r**0.25
+    K = np.array([[np.sqrt(2.0) * wn], [wn * wn]])
+    F = A - K @ np.array([[1.0, 0.0]])
+    P_w = solve_continuous_lyapunov(F, -q * G @ G.T)
+    P_v = solve_continuous_lyapunov(F, -r * K @ K.T)
+    P = solve_continuous_are(A.T, np.array([[1.0], [0.0]]), q * G @ G.T, np.array([[r]]))  # the filter's own covariance
+    np.testing.assert_allclose(P_w + P_v, P, rtol=1e-8)
+    assert np.trace(np.linalg.solve(P, P_v)) / 2.0 == pytest.approx(0.5, rel=1e-8)
+    np.testing.assert_allclose(np.diag(P_v) / np.diag(P), [0.75, 0.25], rtol=1e-8)
