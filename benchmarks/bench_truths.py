@@ -65,7 +65,8 @@ def _detail(r: dict) -> str:
 def run() -> str:
     t0 = time.perf_counter()
     orbit = [(sc, "perturbed", "ekf", ORBIT_S, ORBIT_RUNS, 1.0) for sc in SCENARIOS] if ORBIT_RUNS else []
-    orbit += [(sc, p, f, ORBIT_S, ORBIT_RUNS_OTHER, 1.0) for sc in SCENARIOS for p, f in (("torque-free", "ekf"), ("perturbed", "ukf"))] if ORBIT_RUNS_OTHER else []
+    other = (("torque-free", "ekf"), ("perturbed", "ukf"))
+    orbit += [(sc, p, f, ORBIT_S, ORBIT_RUNS_OTHER, 1.0) for sc in SCENARIOS for p, f in other] if ORBIT_RUNS_OTHER else []
     cases = [(sc, p, f, DURATION_S, RUNS, 1.0) for sc in SCENARIOS for p in PHYSICS for f in FILTERS]
     intervals = [(sc, "perturbed", f, DURATION_S, RUNS, dt) for sc, dt in INTERVAL_CASES for f in FILTERS]
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:

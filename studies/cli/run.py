@@ -216,10 +216,10 @@ def run(
     tuning: Optional[str] = typer.Option(None, help=f"Named tuning ({', '.join(TUNINGS)}); default per --truth: "
                                          f"{', '.join(f'{k}: {n!r}' for k, n in DEFAULT_TUNINGS.items())} (real time: a 60-s window re-fitted "
                                          "every 10 s; in orbit the gravity-gradient torque modelled and the process noise matched to what the "
-                                         "model leaves out; with or without a prior, the prior enters as the initial condition). What a spin prior selects in the demo and "
-                                         "the chain study: sc1-conservative ... sc4-conservative (the paper's scenario tunings with a "
-                                         "settling phase); sc1-paper ... sc4-paper as the paper has them (sc3-paper over-confident "
-                                         "from the default P_0).", callback=v.text(TUNINGS)),
+                                         "model leaves out; with or without a prior, the prior enters as the initial condition). "
+                                         "What a spin prior selects in the demo and the chain study: sc1-conservative ... sc4-conservative "
+                                         "(the paper's scenario tunings with a settling phase); sc1-paper ... sc4-paper as the paper has them "
+                                         "(sc3-paper over-confident from the default P_0).", callback=v.text(TUNINGS)),
     p0_diag: Optional[str] = typer.Option(None, help="Override P_0: 14 comma-separated variances (error states).", callback=v.text()),
     fault: Optional[str] = typer.Option(None, help="Fault window 'START,LENGTH' in s (heavy measurement noise).", callback=v.text()),
     runs: int = typer.Option(1, help=f"Monte-Carlo runs (seeds seed..seed+runs-1), at most {MAX_RUNS}.", callback=v.count(1, MAX_RUNS)),

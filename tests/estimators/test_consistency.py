@@ -144,18 +144,18 @@ def default_p0_runs(truth):
 
     cache = {}
 
-    def get(scenario, name, tuning):
-        key = (scenario, name, tuning)
+    def get(scenario, name, tuning, n_runs=N_DEFAULT):
+        key = (scenario, name, tuning, n_runs)
         if key not in cache:
-            cache[key] = consistency_check(truth(scenario, DURATION_DEFAULT_S), name, get_tuning(tuning), n_runs=N_DEFAULT)
+            cache[key] = consistency_check(truth(scenario, DURATION_DEFAULT_S), name, get_tuning(tuning), n_runs=n_runs)
         return cache[key]
 
     return get
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scenario", "name"), [("SC1", "ekf"), ("SC3", "ukf")])
-def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0_runs, scenario, name):
+@pytest.mark.parametrize(("scenario", "name", "n_runs"), [("SC1", "ukf", N_DEFAULT), ("SC3", "ekf", 12)])
+def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0_runs, scenario, name, n_runs):
     """The torque-free world's default (``fixed-lag-torque-free``: the same bounded window as the orbit's ``fixed-lag``,
     no gravity gradient and ``Q_d = 0`` after the settling phase, since nothing is left out of its model) on the truth
     its model matches: not over-confident, NIS in band, gates at their nominal rate. The perturbed truth's criterion is
@@ -163,9 +163,9 @@ def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0
     (the default before 2026-11-27) was in band here on 95–100 % of the steps, and 3.4 NEES/dof on the perturbed truth.
 
     Measured (30 runs of 120 s): NEES/dof 0.997 / 1.039 (SC1 / SC3 EKF), 0.993 / 1.038 (UKF), in band on 100 % of the
-    steps after the settling phase; NIS 95–98 % in band; gates 0.8–1.3 %. One filter per scenario here (~2 min each):
-    the other two are within 0.001 of these."""
-    r = default_p0_runs(scenario, name, default_tuning("torque-free"))
+    steps after the settling phase; NIS 95–98 % in band; gates 0.8–1.3 %. One filter per scenario here, and 12 runs on SC3
+    (its window fits, with ``k`` estimated, cost ~0.5 s each: 30 runs took 3 min): the other two are within 0.001 of these."""
+    r = default_p0_runs(scenario, name, default_tuning("torque-free"), n_runs)
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
     _assert_not_overconfident(r)
 
@@ -174,8 +174,9 @@ def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
     """Mean NEES/dof under the upper 95 % bound of an N_DEFAULT-run mean (the time average only narrows it), not below
     ``lowest_nees_per_dof``;
     mean NIS/dof under the upper 95 % bound of all the innovations after the settling time (3 dof each, white for a
-    consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %."""
-    from scipy.stats import chi2
+    consistent filter); NIS in its band on ≥ 90 % of the steps; one-sided gate rejections within 2× the nominal 1 %, and not
+    below the lower 99 % binomial bound of the nominal 1 % for the number of measurements gated (0.49 % for 30 runs)."""
+    from scipy.stats import binom, chi2
 
     assert r["diverged"] == 0
     n = r["runs"] * r["dof"]
@@ -184,7 +185,8 @@ def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
     for s in ("attitude", "position"):
         assert r[f"nis_{s}_per_dof"] <= chi2.ppf(0.975, n_nis) / n_nis
         assert r[f"nis_{s}_in_band"] >= 0.9
-        assert 0.005 <= r[f"gate_{s}_rejected"] <= 0.02
+        n_gated = r["runs"] * int(r["duration_s"] - r["settling_s"])
+        assert binom.ppf(0.005, n_gated, 0.01) / n_gated <= r[f"gate_{s}_rejected"] <= 0.02
 
 
 @pytest.mark.slow

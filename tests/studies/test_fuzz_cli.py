@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 
 from studies.cli import main
 
-SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)
+SETTINGS = settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow], derandomize=True)
 
 
 def _import_everything(*packages) -> None:
@@ -205,7 +205,7 @@ def check_reached(r: Reached) -> None:
         raise AssertionError(r.name)
 
 
-@settings(SETTINGS, max_examples=600)
+@settings(SETTINGS, max_examples=300)
 @given(data=st.data())
 def test_every_option_one_line_or_valid(data):
     command = data.draw(st.sampled_from(sorted(COMMANDS)), label="command")
