@@ -334,7 +334,7 @@ class _Problem:
         self.x0_prior = np.asarray(x0_prior, dtype=float)
         self.P0 = np.asarray(P0, dtype=float)
         self.Q = None if Q is None or not np.any(Q) else np.asarray(Q, dtype=float)
-        self.prior_root = np.linalg.cholesky(np.linalg.inv(self.P0))  # P_0⁻¹ = L Lᵀ: prior rows Lᵀ δ
+        self.prior_root = _inverse_root(0.5 * (self.P0 + self.P0.T), "the window's prior covariance")  # P_0⁻¹ = L Lᵀ: prior rows Lᵀ δ
         rows = list(history.groups(int(k_start), int(k_end)))
         # every measurement, whitened: (source, ks, Z, L) with R⁻¹ = L Lᵀ (residual rows Lᵀ y); with process noise one L per measurement
         if self.Q is None:
@@ -418,10 +418,21 @@ def _inflated_root(R: np.ndarray, S: np.ndarray) -> np.ndarray:
     S = 0.5 * (S + np.swapaxes(S, -1, -2))
     if not np.all(np.isfinite(S)):
         raise BatchFitError("the process noise accumulated along the prior's trajectory is not finite")
+    # S_j may span more decades than double precision holds (a window's trajectory run off)
+    return _inverse_root(R + S, "the process noise accumulated along the prior's trajectory")
+
+
+def _inverse_root(A: np.ndarray, what: str) -> np.ndarray:
+    """``L`` (stacked like ``A``) with ``L Lᵀ = A⁻¹``: ``L = C⁻ᵀ``, ``C`` the Cholesky factor of the symmetric ``A``.
+
+    Factored directly: ``A⁻¹`` of a covariance whose eigenvalues span many decades (the window's prior after an orbit without
+    process noise, ``k`` considered: the SC1 torque-free runs of ``python -m benchmarks truths``) rounds to a matrix that is not
+    positive definite, while ``A`` itself still factors. :class:`BatchFitError` (the filter goes on without the fit) when
+    ``A`` is not positive definite to machine precision either."""
     try:
-        C = np.linalg.cholesky(R + S)
-    except np.linalg.LinAlgError:  # S_j spans more decades than double precision holds (a window's trajectory run off)
-        raise BatchFitError("the process noise accumulated along the prior's trajectory is not positive definite to machine precision") from None
+        C = np.linalg.cholesky(A)
+    except np.linalg.LinAlgError:
+        raise BatchFitError(f"{what} is not positive definite to machine precision") from None
     return np.swapaxes(np.linalg.inv(C), -1, -2)
 
 
