@@ -9,14 +9,18 @@ STAMP   := $(VENV)/.lcnav-installed
 export RERUN_ANALYTICS := 0
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint bench readme system clean
+.PHONY: demo test test-slow lint bench readme system clean
 
 demo: $(STAMP)
 	$(VENV)/bin/lcnav demo --out runs/demo
 
 # One pytest worker per core (pytest-xdist), each test file on one worker so that its module fixtures run once.
+# `make test`: everything but the long physics runs (marked `slow`); `make test-slow`: those alone. CI runs both.
 test: $(STAMP)
-	$(PY) -m pytest -n auto --dist loadfile --durations=15
+	$(PY) -m pytest -n auto --dist loadfile -m "not slow" --durations=15
+
+test-slow: $(STAMP)
+	$(PY) -m pytest -n auto --dist loadfile -m slow --durations=15
 
 # ruff: pyflakes, pycodestyle (lines up to 160) and McCabe complexity (at most 12), as pyproject.toml's [tool.ruff] says.
 lint: $(STAMP)

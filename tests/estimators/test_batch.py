@@ -162,7 +162,6 @@ def test_near_axis_posterior_is_consistent_where_the_mode_is_not_gaussian(truth)
         assert lo < np.mean(nees) < hi
 
 
-@pytest.mark.slow
 def test_a_fit_started_in_a_wrong_inertia_basin_finds_the_data_s_one(truth):
     """SC1-NEAR-AXIS at 130 s, started at the truth but for ``k = (1.212, −2.008)`` (where a warm-started fit of seed
     1025 stuck): the restarts across ``k``'s prior find the basin of the data; each fit's NEES/dof lies below the

@@ -108,7 +108,6 @@ def consistency_runs(truth):
     return get
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["SC1", "SC3"])
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_nees_in_band(consistency_runs, scenario, name):
@@ -118,7 +117,6 @@ def test_nees_in_band(consistency_runs, scenario, name):
     assert frac >= 0.90
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["SC1", "SC3"])
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_nees_matches_an_exact_kalman_filter_on_the_same_noise(consistency_runs, scenario, name):
@@ -154,7 +152,7 @@ def default_p0_runs(truth):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scenario", "name", "n_runs"), [("SC1", "ukf", N_DEFAULT), ("SC3", "ekf", 12)])
+@pytest.mark.parametrize(("scenario", "name", "n_runs"), [("SC1", "ukf", N_DEFAULT), ("SC3", "ekf", 8)])
 def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0_runs, scenario, name, n_runs):
     """The torque-free world's default (``fixed-lag-torque-free``: the same bounded window as the orbit's ``fixed-lag``,
     no gravity gradient and ``Q_d = 0`` after the settling phase, since nothing is left out of its model) on the truth
@@ -163,7 +161,7 @@ def test_default_tuning_on_the_torque_free_truth_is_not_overconfident(default_p0
     (the default before 2026-11-27) was in band here on 95–100 % of the steps, and 3.4 NEES/dof on the perturbed truth.
 
     Measured (30 runs of 120 s): NEES/dof 0.997 / 1.039 (SC1 / SC3 EKF), 0.993 / 1.038 (UKF), in band on 100 % of the
-    steps after the settling phase; NIS 95–98 % in band; gates 0.8–1.3 %. One filter per scenario here, and 12 runs on SC3
+    steps after the settling phase; NIS 95–98 % in band; gates 0.8–1.3 %. One filter per scenario here, and 8 runs on SC3
     (its window fits, with ``k`` estimated, cost ~0.5 s each: 30 runs took 3 min): the other two are within 0.001 of these."""
     r = default_p0_runs(scenario, name, default_tuning("torque-free"), n_runs)
     print({k: v for k, v in r.items() if not k.endswith(("_lo", "_hi"))})
@@ -189,7 +187,6 @@ def _assert_not_overconfident(r, lowest_nees_per_dof: float = 0.6):
         assert binom.ppf(0.005, n_gated, 0.01) / n_gated <= r[f"gate_{s}_rejected"] <= 0.02
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize(("scenario", "name"), [("SC1", "ekf"), ("SC1", "ukf"), ("SC3", "ekf"), ("SC3", "ukf")])
 def test_settled_tuning_from_the_default_p0(default_p0_runs, scenario, name):
     """``settled`` from the default ``P_0``: not over-confident, NIS in band, gates at their nominal rate.
@@ -205,7 +202,6 @@ def test_settled_tuning_from_the_default_p0(default_p0_runs, scenario, name):
     _assert_not_overconfident(r)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_prior_chosen_tuning_is_conservative_not_overconfident(default_p0_runs, name):
     """``sc3-conservative`` (what a spin prior of a slow two-axis tumble selects, Renis et al. study 1) from the default ``P_0``.

@@ -122,7 +122,6 @@ def _blackout(truth, name, proxy, seed=1, reacquire_window=5):
     return w_rms, e, run
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", ["ekf", "ukf"])
 def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name):
     """§6.3 of Renis et al.: a 120 s fault on both parts, seeds 1–5.
@@ -159,7 +158,6 @@ def test_blackout_proxy_keeps_rate_error_down_and_filter_reconverges(truth, name
     assert w_proxy.mean() < w_none.mean() and np.sum(w_proxy < w_none) >= 4, pairs
 
 
-@pytest.mark.slow
 def test_without_reacquisition_the_gate_locks_the_ukf_out(truth):
     """The paper's rule alone (§4.3 of Renis et al.) does not guarantee recovery: after the blackout the gate can
     reject every good position for good. Seeds 1–3: seed 2 stays locked out (18.9 m off at the end); seeds 1 and 3

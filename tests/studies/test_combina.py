@@ -197,7 +197,6 @@ def _nees_in_band(runs) -> dict[str, tuple[float, float]]:
     return {name: tuple(np.round(np.concatenate(f, axis=1).mean(axis=1), 3).tolist()) for name, f in flags.items()}
 
 
-@pytest.mark.slow
 def test_rocket_body_filters_hold_their_band_over_two_tu_of_the_perturbed_truth():
     """On the rocket body's perturbed truth over 2 TU, with Q from the budget, the translational and the axisymmetric filters' NEES
     lies in its 95 % band on ≥ 85 % of the steps after the first 0.3 of the run, pooled over 4 seeds (measured 97 % and 88 %).

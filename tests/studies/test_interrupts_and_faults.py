@@ -127,7 +127,7 @@ def test_ctrl_c_during_run_exits_130_and_a_new_run_is_exact(tmp_path, lcnav_env)
     _interrupt(proc, _wait_for(proc, b"lcnav run"))
     assert not out.exists()  # the folder it would have created: not there, nothing that looks finished
     # the same folder afterwards gives exactly what a never-interrupted folder gets
-    argv = ["run", "--duration", "40", "--seed", "4"]
+    argv = ["run", "--duration", "20", "--seed", "4"]
     assert main([*argv, "--out", str(out)]) == 0 and main([*argv, "--out", str(tmp_path / "fresh")]) == 0
     assert (out / "metrics.json").read_bytes() == (tmp_path / "fresh" / "metrics.json").read_bytes()
     assert sio.is_complete(out)["command"] == "run"
