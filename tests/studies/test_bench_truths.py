@@ -24,6 +24,7 @@ def test_a_failing_row_is_reported_and_the_others_are_kept(tmp_path, monkeypatch
     sc1, sc3 = (kept[bench_truths._key(c)] for c in cases)
     assert sc1["error"] == "LinAlgError: Matrix is not positive definite" and "nees_per_dof" not in sc1
     assert sc3["nees_per_dof"] == 0.98 and sc3["runs"] == 4 and sc3["commit"] and sc3["date"]
-    # measured again: the failed row and a row of another size; not the finished one
+    # measured again: the failed row and one asked with more runs than kept; not the finished one, nor one asked with fewer
     assert bench_truths._missing(cases[0], kept) and not bench_truths._missing(cases[1], kept)
     assert bench_truths._missing(("SC3", "perturbed", "ekf", 5700.0, 30, 1.0), kept)
+    assert not bench_truths._missing(("SC3", "perturbed", "ekf", 5700.0, 2, 1.0), kept)
