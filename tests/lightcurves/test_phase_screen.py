@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from lightcurves.inversion.convex import EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
-from lightcurves.inversion.phase_screen import rate_nodes, screen_phases
+from lightcurves.inversion.phase_screen import _combine, rate_nodes, screen_phases
 from lightcurves.inversion.search import _stack, profiled_chi2
 from lightcurves.inversion.spin import SpinState, body_directions
 from lightcurves.render import observed_flux
@@ -102,3 +102,31 @@ def test_screen_chi2_is_never_negative_next_to_a_glint(sub_step):
     for amplitude in np.geomspace(10.0, 1e4, 13):
         screen = screen_phases(data, _Glint(amplitude, np.radians(4.0)), z, z, np.array([omega]), n_phases=M)
         assert screen.chi2.min() >= -1e-12 * S_yy, amplitude
+
+
+def test_combine_is_the_closed_form_profile_at_every_phase():
+    """``_combine`` against the module docstring's χ² written out in numpy: for each (pole, rate) the minimum over axes and
+    grid phases of Σ_cal S_yy − max(Σ_cal S_yB, 0)²/Σ_cal S_BB + Σ_rel (S_yy,k − max(S_yB,k, 0)²/S_BB,k), curve k read at its
+    rate's node and at grid phase (shift_k + j) mod M. Whole-step shifts (the sub-step tables then hold the grid values), some
+    near M so that the reads wrap around; calibrated and relative curves mixed."""
+    rng = np.random.default_rng(11)
+    K, n_a, n_p, n_node, n_w, m = 3, 2, 3, 4, 9, 12
+    S_BB = rng.uniform(0.5, 2.0, (K, n_a, n_p, n_node, m))
+    S_yB = rng.uniform(-0.3, 1.0, (K, n_a, n_p, n_node, m)) * np.sqrt(S_BB)  # some negative: the scale's bound w ≥ 0 acts
+    S_yy = np.array([2.0, 3.0, 2.5])
+    relative = np.array([False, True, False])
+    node_of = rng.integers(0, n_node, (K, n_w))
+    shift = rng.integers(0, m, (K, n_w)).astype(float)
+    shift[:, 0] = m - 1
+    chi2, best = np.empty((n_p, n_w)), np.empty((n_p, n_w), np.int64)
+    _combine(S_yB, S_BB, S_yy, relative, node_of, shift, chi2, best)
+    for p in range(n_p):
+        for w in range(n_w):
+            idx = (shift[:, w, None].astype(int) + np.arange(m)) % m  # (K, m)
+            yb = np.stack([S_yB[k, :, p, node_of[k, w]][:, idx[k]] for k in range(K)])  # (K, n_a, m)
+            bb = np.stack([S_BB[k, :, p, node_of[k, w]][:, idx[k]] for k in range(K)])
+            cal = ~relative
+            c2 = S_yy[cal].sum() - np.maximum(yb[cal].sum(0), 0) ** 2 / bb[cal].sum(0)
+            c2 = c2 + sum(S_yy[k] - np.maximum(yb[k], 0) ** 2 / bb[k] for k in np.flatnonzero(relative))
+            assert chi2[p, w] == pytest.approx(c2.min(), rel=1e-12)
+            assert best[p, w] == np.argmin(c2)  # axis · m + phase index
