@@ -158,5 +158,5 @@ def run() -> str:
     lines += ["", "Measurements every 5 and 10 s (the perturbed truth; the UKF must run through them):", "",
               INTERVAL_HEADER[0] + " measured |", INTERVAL_HEADER[1] + "---|"]
     lines += _lines(intervals, kept, lambda r: _interval_row(r, r["dt_s"]) + f" {r['commit']}, {r['date']} |")
-    lines += ["", f"Wall time of this run {wall:.0f} s (rows measured now: parts {', '.join(parts) or 'none'})."]
+    lines += ["", f"Wall time of the last writing {wall:.0f} s (tables measured then: {', '.join(parts) or 'none, written from the kept rows'})."]
     return "\n".join(lines)
