@@ -111,7 +111,9 @@ def _transport_row(v, r, w_T, E, i):
     )
 
 
-@numba.njit(cache=True)
+# error_model="numpy": a state far from any physical one (a fit's profile probe pushed ``k`` to 913, where e^-k2
+# underflows to 0) gives inf/NaN, which the callers test for, instead of a ZeroDivisionError escaping the filter
+@numba.njit(cache=True, error_model="numpy")
 def _jac(z, J_S, mu, gg):
     """``A = ∂ẋ/∂x`` (15×15) of eq. 21 at the joint vector ``z = [x, s]`` (``s`` is exogenous).
 
@@ -208,7 +210,7 @@ def _jac(z, J_S, mu, gg):
     return A
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _euler_k_jacobian(u, e1, em2, c0, c2):
     """``∂E(u)/∂(k1, k2)`` (3×2, rows) of Euler's right-hand side ``E(u) = (c0 u1 u2, c1 u2 u0, c2 u0 u1)`` in ``J = diag(e^k1, 1, e^-k2)``."""
     p01 = u[1] * u[2]

@@ -114,3 +114,19 @@ def test_tuning_settling_phase():
         Tuning("x", np.zeros(14), np.ones(14), settling_s=-1.0)
     with pytest.raises(ValueError, match="settling_q_rate"):
         Tuning("x", np.zeros(14), np.ones(14), settling_q_rate=-np.ones(14))
+
+
+@pytest.mark.parametrize("gravity_gradient", [False, True])
+def test_a_state_far_from_physical_gives_a_non_finite_trajectory_not_an_exception(rng, gravity_gradient):
+    """A window fit's profile probe pushed ``k₂`` to 913 (SC3, measurements every 10 s, seed 3029 of the truths benchmark):
+    ``e^{−k₂}`` underflows to 0 and the Jacobian's ``(e^{k₁} − 1)/e^{−k₂}`` divided by zero. Numba's default error model
+    raised ``ZeroDivisionError`` out of the filter; the trajectory must be non-finite instead, which the fit tests for
+    (``estimators.batch``: the cost rises without bound there)."""
+    x, s = _state(rng)
+    x[W_ST_T] = [-0.37, 2.09, -0.006]
+    x[-1] = 913.0
+    X, Phi, F = RelativeProcessModel(np.array([500.0, 600.0, 400.0]), gravity_gradient=gravity_gradient).trajectory(x, np.tile(s, (6, 1)), 10.0)
+    assert not (np.isfinite(X).all() and np.isfinite(Phi).all())
+    x[-1] = -1.439  # the same state with a physical k: finite
+    X, Phi, F = RelativeProcessModel(np.array([500.0, 600.0, 400.0]), gravity_gradient=gravity_gradient).trajectory(x, np.tile(s, (6, 1)), 10.0)
+    assert np.isfinite(X).all() and np.isfinite(Phi).all()
