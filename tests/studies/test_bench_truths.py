@@ -28,3 +28,5 @@ def test_a_failing_row_is_reported_and_the_others_are_kept(tmp_path, monkeypatch
     assert bench_truths._missing(cases[0], kept) and not bench_truths._missing(cases[1], kept)
     assert bench_truths._missing(("SC3", "perturbed", "ekf", 5700.0, 30, 1.0), kept)
     assert not bench_truths._missing(("SC3", "perturbed", "ekf", 5700.0, 2, 1.0), kept)
+    kept[bench_truths._key(cases[1])]["diverged"] = 26  # 4 runs kept and 26 diverged: 30 asked, 30 run
+    assert not bench_truths._missing(("SC3", "perturbed", "ekf", 5700.0, 30, 1.0), kept)
