@@ -101,6 +101,8 @@ def _commit() -> str:
 
 def _measure(cases: list[tuple], kept: dict) -> None:
     """Measure ``cases`` on every core, adding each row to ``kept`` and to :data:`ROWS_FILE` as it finishes."""
+    if not cases:  # every row kept: no worker processes to start
+        return
     stamp = {"commit": _commit(), "date": datetime.date.today().isoformat()}
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
         futures = {pool.submit(_row, c): c for c in cases}  # the long orbit runs first: the workers finish together
