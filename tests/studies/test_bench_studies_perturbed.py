@@ -1,0 +1,43 @@
+"""The perturbed-truth study benchmark's config and paired table (benchmarks/bench_studies_perturbed.py)."""
+
+import tomllib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from benchmarks import bench_studies_perturbed as B
+from estimators.tuning import default_tuning
+from studies.engine.registry import get_study
+
+
+@pytest.mark.parametrize("name", list(B.STUDIES))
+def test_the_config_is_the_catalog_s_in_the_perturbed_world(name, tmp_path):
+    """Only the four keys change (the quick table and every other key as in the catalog), and the study accepts it."""
+    catalog = tomllib.loads((B.CONFIGS / f"{name}.toml").read_text())
+    path = tmp_path / f"{name}.toml"
+    path.write_text(B.perturbed_config(name, 7))
+    ours = tomllib.loads(path.read_text())
+    assert (ours["truth"], ours["tuning"], ours["record"], ours["n_seeds"]) == ("perturbed", default_tuning("perturbed"), False, 7)
+    assert {k: v for k, v in ours.items() if k not in ("truth", "tuning", "record", "n_seeds")} == \
+        {k: v for k, v in catalog.items() if k not in ("truth", "tuning", "record", "n_seeds")}
+    config = get_study(name).load(path, quick=False)
+    assert config["truth"] == "perturbed" and config["n_seeds"] == 7
+
+
+def test_a_config_without_the_key_is_refused(monkeypatch, tmp_path):
+    (tmp_path / "init.toml").write_text('study = "init"\nn_seeds = 3\n')
+    monkeypatch.setattr(B, "CONFIGS", tmp_path)
+    with pytest.raises(RuntimeError, match="truth"):
+        B.perturbed_config("init", 3)
+
+
+def test_the_paired_change_is_the_mean_per_seed_difference():
+    """with − without per seed: +1, +2, +3 (mean 2, t interval 2 ± 4.30·0.577); a never-converged seed is left out of the
+    mean and counted in the finite columns."""
+    runs = pd.DataFrame({"filter": ["ekf"] * 8, "prior": [False] * 4 + [True] * 4, "seed_index": [0, 1, 2, 3] * 2,
+                         "ct_w_s": [10.0, 20.0, 30.0, np.inf, 11.0, 22.0, 33.0, 5.0]})
+    (row,) = B.paired_rows(runs, "prior", [("ct_w_s", "convergence time w (s)", 1.0)])
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[:5] == ["EKF", "convergence time w (s)", "25", "16.5", "3 / 4"]
+    assert cells[5] == "+2 [-0.484, +4.48]" and cells[6:] == ["3", "0"]
