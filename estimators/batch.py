@@ -675,10 +675,11 @@ def posterior(model, servicer, history: MeasurementHistory, x0_prior, P0, k_end:
     def refit(P, keep):
         return _Problem(model, servicer, history, x0_prior, P, k_start, k_end, dt, keep=keep, Q=Q)
 
-    problem, x0, lin, steps, flat = _fit_from(problem, x_begin, est, k_fit, refit)
+    verdicts = problem
+    problem, x0, lin, steps, flat = _fit_from(verdicts, x_begin, est, k_fit, refit)
     if problem.dof < CONSENSUS * problem.every_dof:  # the fit explains few of the window's measurements (module docstring)
         try:
-            alt = _fit_from(refit(P0, [np.ones(len(ks), bool) for _, ks, _, _ in problem.every]), x_begin, est, k_fit, refit)
+            alt = _fit_from(verdicts.with_keep([np.ones(len(ks), bool) for _, ks, _, _ in verdicts.every]), x_begin, est, k_fit, refit)
         except BatchFitError:
             alt = None
         if alt is not None:
