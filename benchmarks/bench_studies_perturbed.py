@@ -7,7 +7,9 @@ partly model), ``tuning`` the perturbed world's default (:func:`estimators.tunin
 and ``n_seeds`` (``$LCNAV_BENCH_STUDIES_SEEDS``, default 20). Both arms of a seed share the measurements and the initial
 guess (the studies' pairing), so the effect of the prior is the per-seed difference *with − without*: its mean with a
 95 % Student-t interval over the seeds where both are finite (a convergence time is +∞ when the run never converged;
-those seeds are counted, not averaged). Nothing here is asserted.
+those seeds are counted, not averaged). §6's steady-state RMSE starts at each run's own convergence time, so an arm that
+converges sooner lets more of its transient into it; the second-half RMSE (:func:`studies.sim.metrics.late_rmse`) scores
+both arms over the same steps. Nothing here is asserted.
 """
 
 from __future__ import annotations
@@ -27,11 +29,16 @@ from studies.engine.stats import t_interval
 
 CONFIGS = Path(__file__).resolve().parent.parent / "studies" / "catalog" / "configs"
 SEEDS_ENV = "LCNAV_BENCH_STUDIES_SEEDS"
+#: comma-separated names of :data:`STUDIES` to run (default all): the proxy study is the slow one
+ONLY_ENV = "LCNAV_BENCH_STUDIES_ONLY"
 #: study → (its arm column, the metrics compared: column, label, scale to the printed unit)
 STUDIES = {
     "init": ("prior", [(f"ct_{g}_s", f"convergence time {g} (s)", 1.0) for g in ("q", "w", "r", "v", "k")]
              + [("ess_q", "steady RMSE q (mrad)", 1e3), ("ess_w", "steady RMSE ω (mrad/s)", 1e3), ("ess_r", "steady RMSE r (m)", 1.0),
-                ("ess_v", "steady RMSE v (mm/s)", 1e3), ("ess_k", "steady RMSE k (×1e-3)", 1e3)]),
+                ("ess_v", "steady RMSE v (mm/s)", 1e3), ("ess_k", "steady RMSE k (×1e-3)", 1e3)]
+             + [("late_rmse_q", "second-half RMSE q (mrad)", 1e3), ("late_rmse_w", "second-half RMSE ω (mrad/s)", 1e3),
+                ("late_rmse_r", "second-half RMSE r (m)", 1.0), ("late_rmse_v", "second-half RMSE v (mm/s)", 1e3),
+                ("late_rmse_k", "second-half RMSE k (×1e-3)", 1e3)]),
     "proxy": ("proxy", [("fault_w_err_rms_rad_s", "ω error RMS in the fault (mrad/s)", 1e3), ("fault_q_err_rms_rad", "q error RMS in the fault (mrad)", 1e3),
                         ("fault_r_err_rms_m", "r error RMS in the fault (m)", 1.0), ("ess_q", "steady RMSE q after it (mrad)", 1e3),
                         ("ess_w", "steady RMSE ω after it (mrad/s)", 1e3), ("ess_r", "steady RMSE r after it (m)", 1.0),
@@ -67,15 +74,26 @@ def paired_rows(runs: pd.DataFrame, arm: str, metrics) -> list[str]:
     return lines
 
 
+def chosen_studies() -> list[str]:
+    """The studies named by ``$LCNAV_BENCH_STUDIES_ONLY`` (all of :data:`STUDIES` when unset), checked."""
+    names = [n.strip() for n in os.environ.get(ONLY_ENV, ",".join(STUDIES)).split(",") if n.strip()]
+    if not names or set(names) - set(STUDIES):
+        raise SystemExit(f"{ONLY_ENV}={os.environ.get(ONLY_ENV)!r}: expected some of {list(STUDIES)}")
+    return names
+
+
 def run() -> str:
     n_seeds = int(os.environ.get(SEEDS_ENV, "20"))
+    names = chosen_studies()
     parts = ["## Init and proxy studies on the perturbed truth with the default filters (issue 31)", "",
              f"Catalog configs with `truth = \"perturbed\"`, `tuning = \"{default_tuning('perturbed')}\"`, {n_seeds} seeds, the light-curve prior "
              "(no truth reaches it). Medians over seeds (a convergence time never reached is +∞); paired change = with − without on the "
              "same measurements, mean and 95 % t interval over the seeds where both arms are finite; 'lower' counts those seeds where "
-             "the arm lowered the metric."]
+             "the arm lowered the metric." + ("" if len(names) == len(STUDIES) else
+                                              f" Only {', '.join(f'`{n}`' for n in names)} run this time (`{ONLY_ENV}`).")]
     with tempfile.TemporaryDirectory(prefix="lcnav-bench-studies-perturbed-") as tmp:
-        for name, (arm, metrics) in STUDIES.items():
+        for name in names:
+            arm, metrics = STUDIES[name]
             cfg = Path(tmp) / f"{name}.toml"
             cfg.write_text(perturbed_config(name, n_seeds))
             t0 = time.perf_counter()

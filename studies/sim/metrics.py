@@ -109,6 +109,21 @@ def steady_state_rmse(t, m, t_conv: float) -> float:
     return float(np.sqrt(np.mean(m[sel] ** 2)))
 
 
+def late_rmse(t, m, fraction: float = 0.5) -> float:
+    """``√mean(m²)`` over the last ``fraction`` of the run, ``t − t[0] ≥ (1 − fraction)(t[-1] − t[0])``.
+
+    Unlike :func:`steady_state_rmse` its window does not depend on the run's own convergence time, so two
+    runs compared on the same truth (a paired arm of a study) are scored over the same steps: a run that
+    converges sooner does not pay for the transient it let into §6's window.
+    """
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"late_rmse: fraction must be in (0, 1], got {fraction}")
+    t = np.asarray(t, dtype=float)
+    m = np.asarray(m, dtype=float)
+    sel = (t - t[0]) >= (1.0 - fraction) * (t[-1] - t[0]) - 1e-9
+    return float(np.sqrt(np.mean(m[sel] ** 2)))
+
+
 def component_metrics(t, magnitudes: dict, thresholds: dict | None = None) -> dict[str, ComponentMetrics]:
     """Convergence time and steady-state RMSE for each group of ``magnitudes``."""
     th = {**DEFAULT_THRESHOLDS, **(thresholds or {})}

@@ -40,7 +40,7 @@ from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, initiali
 from estimators.state import DW_ST_T, ERROR_GROUPS, K, K_STATES, N_ERROR, N_STATE, Q_TS
 from estimators.tuning import Tuning
 from perception.simulated_pose import parse_faults, simulate_pose_measurements
-from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, nees, state_errors
+from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, late_rmse, nees, state_errors
 from studies.sim.truth import Truth, simulate_truth
 
 
@@ -319,9 +319,11 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
 
 
 def run_metrics(tr: Truth, run: NavigationRun, thresholds: dict | None = None) -> dict:
-    """§6 metrics as a flat dict: ``ct_<g>_s``/``ess_<g>`` (state based), ``ct_f_<g>_s``/``ess_f_<g>`` (filter based).
+    """§6 metrics as a flat dict: ``ct_<g>_s``/``ess_<g>`` (state based), ``ct_f_<g>_s``/``ess_f_<g>`` (filter based),
+    and ``late_rmse_<g>``: the state-based RMSE over the second half of the run (:func:`studies.sim.metrics.late_rmse`,
+    the same steps for every run on a truth: the paired comparison of two arms).
 
-    NaN where the group did not converge below its threshold.
+    NaN where the group did not converge below its threshold (``ct``/``ess``).
     """
     m = evaluate(tr.t, run.x, run.P, tr.x, thresholds)
     out = {}
@@ -329,6 +331,7 @@ def run_metrics(tr: Truth, run: NavigationRun, thresholds: dict | None = None) -
         for g in GROUPS:
             out[f"ct_{prefix}{g}_s"] = m[kind][g].convergence_time_s
             out[f"ess_{prefix}{g}"] = m[kind][g].steady_state_rmse
+    out.update({f"late_rmse_{g}": late_rmse(tr.t, e) for g, e in state_errors(run.x, tr.x).items()})
     return out
 
 

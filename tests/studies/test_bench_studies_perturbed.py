@@ -41,3 +41,14 @@ def test_the_paired_change_is_the_mean_per_seed_difference():
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[:5] == ["EKF", "convergence time w (s)", "25", "16.5", "3 / 4"]
     assert cells[5] == "+2 [-0.484, +4.48]" and cells[6:] == ["3", "0"]
+
+
+def test_the_studies_run_are_chosen_by_name(monkeypatch):
+    monkeypatch.delenv(B.ONLY_ENV, raising=False)
+    assert B.chosen_studies() == list(B.STUDIES)
+    monkeypatch.setenv(B.ONLY_ENV, " init ")
+    assert B.chosen_studies() == ["init"]
+    for bad in ("init,tuning", ","):
+        monkeypatch.setenv(B.ONLY_ENV, bad)
+        with pytest.raises(SystemExit, match=B.ONLY_ENV):
+            B.chosen_studies()

@@ -20,6 +20,19 @@ def test_convergence_time_is_when_it_stays_below():
     assert np.isnan(M.steady_state_rmse(t, m, np.nan))
 
 
+def test_late_rmse_scores_the_same_steps_whatever_the_convergence():
+    """The second half of a ramp ``m = t`` on ``[0, T]``: ``√(∫_{T/2}^T t² dt / (T/2)) = T √(7/12)``; two runs that
+    differ only before ``T/2`` (one converged sooner, one later) score the same, unlike §6's steady-state RMSE."""
+    t = np.linspace(0.0, 1000.0, 100001)
+    assert M.late_rmse(t + 50.0, t) == pytest.approx(1000.0 * np.sqrt(7.0 / 12.0), rel=1e-4)
+    soon, late = np.r_[np.full(20, 5.0), np.full(80, 0.1)], np.r_[np.full(40, 5.0), np.full(60, 0.1)]
+    tt = np.arange(100.0)
+    assert M.late_rmse(tt, soon) == M.late_rmse(tt, late) == pytest.approx(0.1)
+    assert M.steady_state_rmse(tt, soon, M.convergence_time(tt, soon, 1.0)) == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="fraction"):
+        M.late_rmse(tt, soon, fraction=0.0)
+
+
 def test_state_and_filter_magnitudes():
     x = np.zeros((3, 15))
     x[:, 0] = 1.0
