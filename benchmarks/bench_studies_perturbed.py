@@ -74,6 +74,19 @@ def paired_rows(runs: pd.DataFrame, arm: str, metrics) -> list[str]:
     return lines
 
 
+def prior_line(runs: pd.DataFrame) -> str:
+    """How the study's prior (one campaign, shared by every run: the first run with one) scores against the truth; empty without one."""
+    cols = ("prior_pole_err_deg", "prior_period_err_pct", "prior_sense_right", "prior_sense_probability", "prior_n_modes",
+            "prior_w_err_rad_s", "prior_axis_err_deg", "prior_w_mahalanobis2")
+    if not set(cols) <= set(runs.columns) or not (ok := runs["prior_n_modes"].fillna(0) > 0).any():
+        return ""
+    r = runs[ok].iloc[0]
+    return (f"The prior (one rendered campaign, shared by every run): pole {r.prior_pole_err_deg:.2f}° off, period "
+            f"{r.prior_period_err_pct:+.1e} % off, sense {'right' if r.prior_sense_right else 'wrong'} (probability "
+            f"{r.prior_sense_probability:.2f}), {int(r.prior_n_modes)} mode(s); as `ω_T` {1e3 * r.prior_w_err_rad_s:.1f} mrad/s off "
+            f"(body axis {r.prior_axis_err_deg:.1f}° off), Mahalanobis² {r.prior_w_mahalanobis2:.2f} against its covariance.")
+
+
 def chosen_studies() -> list[str]:
     """The studies named by ``$LCNAV_BENCH_STUDIES_ONLY`` (all of :data:`STUDIES` when unset), checked."""
     names = [n.strip() for n in os.environ.get(ONLY_ENV, ",".join(STUDIES)).split(",") if n.strip()]
@@ -99,7 +112,9 @@ def run() -> str:
             t0 = time.perf_counter()
             res = run_study(name, config_path=cfg, out=Path(tmp) / name, progress=False)
             wall = time.perf_counter() - t0
-            parts += ["", f"### `{name}` ({len(res.runs)} runs, {wall:.0f} s wall on {os.cpu_count()} local workers)", "",
-                      f"| filter | metric | median without | median with {arm} | finite without / with | paired change [95 % CI] | seeds | lower |",
+            parts += ["", f"### `{name}` ({len(res.runs)} runs, {wall:.0f} s wall on {os.cpu_count()} local workers)", ""]
+            if line := prior_line(res.runs):
+                parts += [line, ""]
+            parts += [f"| filter | metric | median without | median with {arm} | finite without / with | paired change [95 % CI] | seeds | lower |",
                       "|---|---|---|---|---|---|---|---|", *paired_rows(res.runs, arm, metrics)]
     return "\n".join(parts)

@@ -52,3 +52,13 @@ def test_the_studies_run_are_chosen_by_name(monkeypatch):
         monkeypatch.setenv(B.ONLY_ENV, bad)
         with pytest.raises(SystemExit, match=B.ONLY_ENV):
             B.chosen_studies()
+
+
+def test_the_prior_line_reports_the_first_run_with_a_prior():
+    """The prior's score columns of the study (one campaign shared by every run) in one line; none when no run had one."""
+    base = {"prior_pole_err_deg": 0.12, "prior_period_err_pct": -1.4e-4, "prior_sense_right": True, "prior_sense_probability": 1.0,
+            "prior_n_modes": 1, "prior_w_err_rad_s": 0.0492, "prior_axis_err_deg": 19.6, "prior_w_mahalanobis2": 2.05}
+    runs = pd.DataFrame([{**base, "prior_n_modes": 0}, base])
+    line = B.prior_line(runs)
+    assert "pole 0.12° off" in line and "sense right (probability 1.00), 1 mode(s)" in line and "49.2 mrad/s off" in line
+    assert B.prior_line(runs.iloc[:1]) == "" and B.prior_line(pd.DataFrame({"x": [1]})) == ""
