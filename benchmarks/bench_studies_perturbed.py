@@ -20,12 +20,11 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from estimators.tuning import default_tuning
 from studies.engine.registry import run_study
-from studies.engine.stats import t_interval
+from studies.catalog.filter_common import paired_change
 
 CONFIGS = Path(__file__).resolve().parent.parent / "studies" / "catalog" / "configs"
 SEEDS_ENV = "LCNAV_BENCH_STUDIES_SEEDS"
@@ -59,19 +58,10 @@ def perturbed_config(name: str, n_seeds: int) -> str:
 
 def paired_rows(runs: pd.DataFrame, arm: str, metrics) -> list[str]:
     """Markdown rows: per filter and metric, the medians of both arms and the paired change (with − without), mean and 95 % t interval."""
-    lines = []
-    for f in dict.fromkeys(runs["filter"]):
-        off = runs[(runs["filter"] == f) & ~runs[arm].astype(bool)].set_index("seed_index")
-        on = runs[(runs["filter"] == f) & runs[arm].astype(bool)].set_index("seed_index")
-        both = off.index.intersection(on.index)
-        for col, label, scale in metrics:
-            a, b = off.loc[both, col].astype(float) * scale, on.loc[both, col].astype(float) * scale
-            ok = np.isfinite(a) & np.isfinite(b)
-            d = (b - a)[ok].to_numpy()
-            iv = t_interval(d)
-            lines.append(f"| {f.upper()} | {label} | {np.median(a):.3g} | {np.median(b):.3g} | {int(np.isfinite(a).sum())} / {int(np.isfinite(b).sum())} | "
-                         f"{iv.estimate:+.3g} [{iv.lo:+.3g}, {iv.hi:+.3g}] | {int(ok.sum())} | {int(np.sum(d < 0))} |")
-    return lines
+    by_metric = [(label, scale, {r["filter"]: r for r in paired_change(runs, arm, col)}) for col, label, scale in metrics]
+    return [f"| {f.upper()} | {label} | {scale * r['without']:.3g} | {scale * r['with']:.3g} | {r['finite_without']} / {r['finite_with']} | "
+            f"{scale * r['mean']:+.3g} [{scale * r['lo']:+.3g}, {scale * r['hi']:+.3g}] | {r['seeds']} | {r['lower']} |"
+            for f in dict.fromkeys(runs["filter"]) for label, scale, rows in by_metric for r in [rows[f]]]
 
 
 def prior_line(runs: pd.DataFrame) -> str:

@@ -146,6 +146,32 @@ def median_interval(x, confidence: float = 0.95) -> tuple[float, float, float]:
     return fin(med), fin(lo), fin(hi)
 
 
+def paired_change(runs: pd.DataFrame, arm: str, column: str, confidence: float = 0.95) -> list[dict]:
+    """Per filter: the paired effect of ``arm`` (a boolean column) on ``column``, the arms matched by ``seed_index``.
+
+    Returns one dict per filter: ``without``/``with`` (medians over the seeds both arms ran; a metric never reached, +∞,
+    counts), ``finite_without``/``finite_with``, and the change *with − without* over the seeds where both are finite:
+    ``mean`` with its Student-t interval ``lo``/``hi`` (:func:`studies.engine.stats.t_interval`), ``seeds`` and ``lower`` (the
+    seeds where the arm lowered the metric).
+    """
+    from studies.engine.stats import t_interval
+
+    rows = []
+    for f in dict.fromkeys(runs["filter"]):
+        mine = runs[runs["filter"] == f]
+        off = mine[~mine[arm].astype(bool)].set_index("seed_index")[column].astype(float)
+        on = mine[mine[arm].astype(bool)].set_index("seed_index")[column].astype(float)
+        both = off.index.intersection(on.index)
+        a, b = off.loc[both], on.loc[both]
+        ok = np.isfinite(a) & np.isfinite(b)
+        d = (b - a)[ok].to_numpy()
+        iv = t_interval(d, confidence)
+        rows.append({"filter": f, "without": float(np.median(a)) if len(a) else np.nan, "with": float(np.median(b)) if len(b) else np.nan,
+                     "finite_without": int(np.isfinite(a).sum()), "finite_with": int(np.isfinite(b).sum()),
+                     "mean": iv.estimate, "lo": iv.lo, "hi": iv.hi, "seeds": int(ok.sum()), "lower": int(np.sum(d < 0))})
+    return rows
+
+
 def metric_tables(runs: pd.DataFrame, arms: list[tuple[str, str]], groups, *, confidence: float, scale_ess: float = 1e3):
     """Paper-layout tables of §6: median convergence time and steady-state RMSE per (basis, group) × arm.
 

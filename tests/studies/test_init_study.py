@@ -14,7 +14,7 @@ def quick_init(tmp_path_factory):
 
 
 def test_outputs_and_recordings(quick_init, tmp_path, capsys):
-    runs = check_outputs(quick_init, ["table5", "k_convergence", "statistics"], ["fig6_init_errors.png"])
+    runs = check_outputs(quick_init, ["table5", "k_convergence", "late_rmse", "statistics"], ["fig6_init_errors.png"])
     check_recordings(quick_init, runs, tmp_path, capsys)
     # every seed runs each filter with and without the prior, on the same seed (paired)
     assert set(runs["filter"]) == {"ekf", "ukf"}
@@ -44,3 +44,19 @@ def test_prior_starts_the_rate_within_its_error(quick_init):
     assert (runs.loc[~runs["prior"], "w0_err_rad_s"] > 0.8 * w_T).all()
     # starting within the 2 deg/s threshold, the rate is converged from t = 0 (Table 4 of Renis et al.: 0 s)
     assert (prior["ct_w_s"] == 0).all()
+
+
+def test_the_second_half_table_is_the_paired_change_of_the_runs(quick_init):
+    """The ``late_rmse`` table against the runs: per filter and component the medians of both arms and the mean of the
+    per-seed differences (with − without); every RMSE positive and finite (no run diverged in the quick size)."""
+    runs = pd.read_parquet(quick_init / "runs.parquet")
+    table = pd.read_parquet(quick_init / "late_rmse.parquet").set_index(["filter", "component"])
+    for f in ("ekf", "ukf"):
+        mine = runs[runs["filter"] == f]
+        a = mine[~mine["prior"]].set_index("seed_index")["late_rmse_w"]
+        b = mine[mine["prior"]].set_index("seed_index")["late_rmse_w"]
+        assert np.all(np.isfinite(a)) and np.all(a > 0) and np.all(b > 0)
+        row = table.loc[(f.upper(), "ω_ST")]
+        assert row["no prior (x1e-3, median)"] == pytest.approx(1e3 * np.median(a))
+        assert row["paired change (x1e-3, mean)"] == pytest.approx(1e3 * np.mean(b - a.loc[b.index]))
+        assert row["change lo"] <= row["paired change (x1e-3, mean)"] <= row["change hi"]
