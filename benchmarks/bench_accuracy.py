@@ -3,8 +3,8 @@
 ``python -m benchmarks accuracy``. Issue 31 asks that on the perturbed truth the default's steady-state RMSE per component
 stay within 2× of ``relinearized`` (the former default: a full-information fit every 10 s, cost growing with the run) on
 the torque-free truth. Per scenario (SC1, SC3), :data:`RUNS` runs of :data:`DURATION_S` at 1 s with the same seeds in
-every case (seed ``FIRST_SEED + i``: the pose noise, then the initial error ``δx ~ N(0, P_0)``, as
-:func:`studies.sim.navigation.consistency_check` draws them):
+every case (seed ``FIRST_SEED + i``: the pose noise, then the initial error ``δx ~ N(0, P_0)``,
+:func:`studies.sim.navigation.monte_carlo_run`, as :func:`studies.sim.navigation.consistency_check` draws them):
 
 * the reference: ``relinearized`` EKF on the torque-free truth;
 * the default in orbit: ``fixed-lag`` (:func:`estimators.tuning.default_tuning` of ``perturbed``), EKF and UKF, on the
@@ -26,15 +26,10 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from estimators.error_state import boxplus
 from estimators.filter import DivergenceError
-from estimators.measurement import PoseNoise
-from estimators.navigation import run_navigation
-from estimators.state import N_ERROR
 from estimators.tuning import default_tuning, get_tuning
-from perception.simulated_pose import simulate_pose_measurements
 from studies.sim.metrics import GROUPS, late_rmse, state_errors
-from studies.sim.navigation import considered_states, dispersed_truth
+from studies.sim.navigation import considered_states, monte_carlo_run
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import simulate_truth
 
@@ -55,20 +50,12 @@ UNITS = {"q": ("mrad", 1e3), "w": ("mrad/s", 1e3), "r": ("m", 1.0), "v": ("mm/s"
 def one_run(scenario: str, physics: str, tuning_name: str, filter_name: str, seed: int, duration_s: float) -> dict[str, float] | None:
     """The second-half RMSE per group of one run (``None`` when the filter broke down); ``k`` NaN where it is considered."""
     tr = simulate_truth(get_scenario(scenario), duration_s, 1.0, physics)
-    if physics != "torque-free":
-        tr = dispersed_truth(tr, np.random.default_rng((seed, 1)))
-    tuning, noise = get_tuning(tuning_name), PoseNoise()
-    rng = np.random.default_rng(seed)
-    m = simulate_pose_measurements(tr.t, tr.x, rng, tau_s=1.0, sigma_q_rad=noise.sigma_q_rad, sigma_r_m=noise.sigma_r_m, noise=noise.model)
-    x0 = boxplus(tr.x[0], rng.multivariate_normal(np.zeros(N_ERROR), tuning.P_0))
-    consider = considered_states(tr.scenario, tr.physics)
     try:
-        run = run_navigation(filter_name, tr.t, tr.servicer, tr.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning, pose_noise=noise,
-                             gate_confidence=0.99, gate_start_s=10.0, consider=consider)
+        tr, run = monte_carlo_run(tr, filter_name, get_tuning(tuning_name), seed, disperse_orbit_phase=physics != "torque-free")
     except DivergenceError:
         return None
     out = {g: late_rmse(tr.t, e) for g, e in state_errors(run.x, tr.x).items()}
-    if consider:
+    if considered_states(tr.scenario, tr.physics):
         out["k"] = float("nan")
     return out
 

@@ -214,6 +214,26 @@ def dispersed_truth(tr: Truth, rng: np.random.Generator) -> Truth:
     return simulate_truth(scenario, float(tr.t[-1] - tr.t[0]), float(tr.t[1] - tr.t[0]), tr.physics)
 
 
+def monte_carlo_run(tr: Truth, filter_name: str, tuning: Tuning, seed: int, *, pose_noise: PoseNoise = PoseNoise(), gate_confidence: float = 0.99,
+                    gate_start_s: float = 10.0, disperse_orbit_phase: bool = False) -> tuple[Truth, NavigationRun]:
+    """One Monte-Carlo run of :func:`consistency_check`: ``(truth flown, run)``.
+
+    Draws from ``default_rng(seed)`` the pose measurements (``pose_noise``, also the filter's ``R_d``), then the initial
+    error ``δx ~ N(0, tuning.P_0)``, ``x̂_0 = x ⊞ δx``; with ``disperse_orbit_phase`` the truth is first flown again from its
+    own orbit phase (:func:`dispersed_truth`, stream ``default_rng((seed, 1))``). The states of :func:`considered_states` are
+    considered. Raises :class:`estimators.filter.DivergenceError` when the filter breaks down.
+    """
+    rng = np.random.default_rng(seed)
+    tr_i = dispersed_truth(tr, np.random.default_rng((seed, 1))) if disperse_orbit_phase else tr
+    m = simulate_pose_measurements(tr_i.t, tr_i.x, rng, tau_s=float(tr_i.t[1] - tr_i.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
+                                   sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
+    x0 = boxplus(tr_i.x[0], rng.multivariate_normal(np.zeros(N_ERROR), tuning.P_0))
+    run = run_navigation(filter_name, tr_i.t, tr_i.servicer, tr_i.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
+                         pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
+                         consider=considered_states(tr_i.scenario, tr_i.physics))
+    return tr_i, run
+
+
 def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: int = 30, first_seed: int = 1000,
                       pose_noise: PoseNoise = PoseNoise(), gate_confidence: float = 0.99, gate_start_s: float = 10.0,
                       settling_s: float = SETTLING_S, confidence: float = 0.95, disperse_orbit_phase: bool = False) -> dict:
@@ -268,15 +288,9 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     E_block = {g: [] for g in blocks}
     diverged = regularized = 0
     for i in range(n_runs):
-        rng = np.random.default_rng(first_seed + i)
-        tr_i = dispersed_truth(tr, np.random.default_rng((first_seed + i, 1))) if disperse_orbit_phase else tr
-        m = simulate_pose_measurements(tr_i.t, tr_i.x, rng, tau_s=float(tr_i.t[1] - tr_i.t[0]), sigma_q_rad=pose_noise.sigma_q_rad,
-                                       sigma_r_m=pose_noise.sigma_r_m, noise=pose_noise.model)
-        x0 = boxplus(tr_i.x[0], rng.multivariate_normal(np.zeros(N_ERROR), tuning.P_0))
         try:
-            run = run_navigation(filter_name, tr_i.t, tr_i.servicer, tr_i.J_S_diag, m.t, m.q_TS, m.r_ST_T, x0=x0, tuning=tuning,
-                                 pose_noise=pose_noise, gate_confidence=gate_confidence, gate_start_s=gate_start_s,
-                                 consider=consider)
+            tr_i, run = monte_carlo_run(tr, filter_name, tuning, first_seed + i, pose_noise=pose_noise, gate_confidence=gate_confidence,
+                                        gate_start_s=gate_start_s, disperse_orbit_phase=disperse_orbit_phase)
         except DivergenceError:
             diverged += 1
             continue
