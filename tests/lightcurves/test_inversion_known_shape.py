@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from lightcurves import scene
-from lightcurves.inversion.known_shape import KnownShapeError, KnownShapeModel, fibonacci_sphere
+from lightcurves.inversion.known_shape import KnownShapeError, KnownShapeModel, _SphereInterpolator, fibonacci_sphere
 from lightcurves.render import UnresolvedRenderer
 from lightcurves.targets import ALUMINIUM, SOLAR_CELL, WHITE_PAINT, Material, get_target
 
@@ -144,6 +144,18 @@ def test_fibonacci_directions_cover_the_sphere_evenly():
     q = _unit(np.random.default_rng(2).normal(size=(5000, 3)))
     nearest = np.arccos(np.clip((q @ d.T).max(axis=1), -1, 1))
     assert nearest.max() < 1.2 * np.sqrt(4 * np.pi / 2048)
+
+
+@pytest.mark.parametrize("n", [64, 2048])
+def test_cell_lookup_finds_the_nearest_direction(n):
+    """The shadow table's O(1) cell lookup returns exactly the nearest direction (the brute-force argmax of q·d), also at the
+    poles, on the azimuth seam (±π) and at the directions themselves."""
+    d = fibonacci_sphere(n)
+    lookup = _SphereInterpolator(d)
+    q = _unit(np.random.default_rng(4).normal(size=(20000, 3)))
+    seam = _unit(np.array([[-1.0, s, z] for s in (0.0, 1e-17, -1e-17) for z in (-0.7, 0.0, 0.3)]))
+    q = np.concatenate([q, d, seam, [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]])
+    np.testing.assert_array_equal(lookup.nearest(q), np.argmax(q @ d.T, axis=1))
 
 
 @pytest.mark.parametrize("bad, field", [(np.ones((3, 2)), "sun_T"), (np.full((3, 3), np.nan), "sun_T"), (np.ones((3, 3)), "sun_T")])
