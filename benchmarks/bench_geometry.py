@@ -46,5 +46,6 @@ def run() -> str:
         "## Observation geometry: interpolated against astropy at every time", "",
         "GPS-like orbit (a = 26 560 km, i = 55°) from the default site, epoch 2026-03-01. Differences are maxima over the samples; "
         "times best of 3 (`observe` in full against astropy's site, vertical and Sun alone at every time).", "",
-        "| samples | n | observer (m) | Sun (m) | target elevation (rad) | Sun elevation (rad) | visibility differs | observe (ms) | astropy per time (ms) | ratio |",
+        "| samples | n | observer (m) | Sun (m) | target elevation (rad) | Sun elevation (rad) | visibility differs | observe (ms) "
+        "| astropy per time (ms) | ratio |",
         "|---|---|---|---|---|---|---|---|---|---|", *rows])
