@@ -156,3 +156,20 @@ def test_invert_turns_the_body_over_at_every_candidate_pole():
     result = invert(curves, model, period_range, rng=np.random.default_rng(1027))
     assert result.best.chi2 <= profiled_chi2(curves, model, truth)[0] + B.DCHI2_MISS
     assert B._angle_deg(result.best.pole_I, truth.pole_I) < 2.0
+
+
+@pytest.mark.slow
+def test_invert_keeps_every_alias_of_the_best_pole_and_turns_the_phase_by_quarters():
+    """Four nights of a box-wing spun about its major axis: the screen's coarse copy ranked the cycle-count teeth n = +1, +2
+    above the truth's n = 0 (χ² 940, 1009, 1176 on the grid samples), which fell out of reach, and the full model's fit from
+    that tooth ended a quarter turn off in phase (box-wing's box looks alike every quarter turn): the old search ended on
+    n = +2 at χ² 8954 against the truth's 465. Every alias of the best pole now goes on (``search._trials_to_fit``) and each
+    fit is started turned by quarters (``search._quarter_turned``): measured χ² 9.2 below the truth's, pole 0.1°."""
+    model = KnownShapeModel.from_target(get_target("box-wing"))
+    rng = np.random.default_rng(9005)
+    case = B.draw_case(rng, "box-wing", int(rng.integers(1, 6)), 150)
+    curves, truth, synodic = B.simulate_case(case, B.FacetRenderer(model), rng)
+    result = invert(curves, model, B._period_range(synodic, rng), rng=rng)
+    assert len(curves) == 4
+    assert result.best.chi2 <= profiled_chi2(curves, model, truth)[0] + B.DCHI2_MISS
+    assert B._angle_deg(result.best.pole_I, truth.pole_I) < 2.0
