@@ -14,7 +14,7 @@ import numpy as np
 from astropy.time import Time
 
 from benchmarks.bench_lightcurves import _best_of
-from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, observe, site_sun_exact
+from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, observe, site_sun_exact, topocentric_elevation
 
 EPOCH = Time("2026-03-01T00:00:00", scale="utc")
 ORBIT = KeplerOrbit(a_m=26_560e3, i_rad=np.radians(55.0), raan_rad=1.0, nu0_rad=2.0)
@@ -25,17 +25,12 @@ def _sets() -> dict[str, np.ndarray]:
             "2000 random times in 3 days": np.sort(np.random.default_rng(7).uniform(0.0, 3 * 86400.0, 2000))}
 
 
-def _elevation(r_I, r_site_I, up_I) -> np.ndarray:
-    d = r_I - r_site_I
-    return np.arcsin(np.einsum("ij,ij->i", d, up_I) / np.linalg.norm(d, axis=1))
-
-
 def run() -> str:
     rows = []
     for name, t in _sets().items():
         ob = observe(ORBIT, t, EPOCH)
         r_O, up, r_S = site_sun_exact(EPOCH + t * u.s, DEFAULT_SITE)
-        el, sun_el = _elevation(ob.r_target_I, r_O, up), _elevation(r_S, r_O, up)
+        el, sun_el = topocentric_elevation(ob.r_target_I, r_O, up), topocentric_elevation(r_S, r_O, up)
         visible = ob.sunlit & (el >= np.radians(15.0)) & (sun_el <= np.radians(-12.0))
         t_new = _best_of(lambda: observe(ORBIT, t, EPOCH), 3)
         t_old = _best_of(lambda: site_sun_exact(EPOCH + t * u.s, DEFAULT_SITE), 3)

@@ -36,7 +36,8 @@ from scipy.interpolate import CubicSpline
 from estimators.attitude import dcm_to_quat, quat_derivative, quat_normalize
 from estimators.dynamics import MU_EARTH, R_EARTH, euler_rhs, integrate_truth
 
-__all__ = ["KeplerOrbit", "Observation", "observe", "site_sun_exact", "find_visible_start", "spin_attitude", "pole_quaternion", "bisector_rate", "DEFAULT_SITE"]
+__all__ = ["KeplerOrbit", "Observation", "observe", "site_sun_exact", "topocentric_elevation", "find_visible_start", "spin_attitude",
+           "pole_quaternion", "bisector_rate", "DEFAULT_SITE"]
 
 #: ESA Optical Ground Station, Teide Observatory, Tenerife (a site that observes debris).
 DEFAULT_SITE = EarthLocation.from_geodetic(lon=-16.5097 * u.deg, lat=28.2995 * u.deg, height=2393.0 * u.m)
@@ -162,7 +163,7 @@ def _site_sun(t_s: np.ndarray, epoch: Time, site: EarthLocation) -> tuple[np.nda
     return r_O, up / np.linalg.norm(up, axis=1, keepdims=True), r_S
 
 
-def _elevation(r_I: np.ndarray, r_site_I: np.ndarray, up_I: np.ndarray) -> np.ndarray:
+def topocentric_elevation(r_I: np.ndarray, r_site_I: np.ndarray, up_I: np.ndarray) -> np.ndarray:
     """Topocentric geodetic elevation (rad) of positions ``r_I`` seen from the site at ``r_site_I`` with vertical ``up_I`` (all in I)."""
     d = r_I - r_site_I
     return np.arcsin(np.clip(np.einsum("ij,ij->i", d, up_I) / np.linalg.norm(d, axis=1), -1.0, 1.0))
@@ -195,8 +196,8 @@ def observe(orbit: KeplerOrbit, t_s, epoch: Time, site: EarthLocation = DEFAULT_
     along = np.einsum("ij,ij->i", r_T, s_hat)
     perp = np.linalg.norm(r_T - along[:, None] * s_hat, axis=1)
     sunlit = (along > 0) | (perp > R_EARTH)  # cylindrical umbra
-    elev = _elevation(r_T, r_O, up_I)
-    sun_elev = _elevation(r_S, r_O, up_I)
+    elev = topocentric_elevation(r_T, r_O, up_I)
+    sun_elev = topocentric_elevation(r_S, r_O, up_I)
     visible = sunlit & (elev >= np.radians(min_elevation_deg)) & (sun_elev <= np.radians(max_sun_elevation_deg))
     return Observation(t, epoch, r_T, r_O, r_S, rng, elev, sun_elev, phase, sunlit, _airmass(elev), visible)
 
