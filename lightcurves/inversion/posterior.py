@@ -206,6 +206,18 @@ class InversionResult:
     def best(self) -> SpinSolution:
         return self.solutions[0]
 
+    def profile_level(self, chi2_at_pole: float) -> float:
+        """The smallest level of the profile-likelihood region that holds a pole whose profile χ² is ``chi2_at_pole``
+        (:func:`lightcurves.inversion.search.pole_profile_chi2`): F_χ²₂((χ²(p) − χ²_min)/s), Wilks' law for the pole's
+        two degrees of freedom with the χ² differences scaled by s as the modes' (eq. 1). The region of level α holds the
+        poles with a level ≤ α: it follows a ridge of the likelihood that the modes' Gaussians cut short. NaN when the
+        pole's χ² is below the best mode's by more than 1: the search missed an optimum, and no region of this result
+        describes that pole."""
+        chi2_min = min(s.chi2 for s in self.solutions)
+        if not np.isfinite(chi2_at_pole) or chi2_at_pole < chi2_min - 1.0:
+            return float("nan")
+        return float(chi2_dist.cdf(max(chi2_at_pole - chi2_min, 0.0) / self.chi2_scale, 2))
+
 
 def integrated_autocorrelation_time(r, c: float = SOKAL_WINDOW_C) -> float:
     """Integrated autocorrelation time τ (samples) of one residual series ``r`` (n,), Sokal's windowed estimator (eq. 2).

@@ -10,12 +10,13 @@ import pytest
 from astropy.time import Time
 from scipy.spatial.transform import Rotation
 from scipy.stats import binom
+from scipy.stats import chi2 as chi2_dist
 
 from lightcurves.geometry import KeplerOrbit, observe
 from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.posterior import laplace_probabilities
-from lightcurves.inversion.search import invert, period_grid, profiled_chi2
+from lightcurves.inversion.search import invert, period_grid, pole_profile_chi2, profiled_chi2
 from lightcurves.inversion.frames import pole_from_radec
 from lightcurves.inversion.spin import SpinState, body_directions, pole_frame
 from lightcurves.render import observed_flux
@@ -80,6 +81,28 @@ def test_known_shape_recovers_pole_period_and_sense():
     # χ² is consistent with the noise (the exact model): within 4σ of the dof
     assert abs(best.chi2 - res.dof) < 4 * np.sqrt(2 * res.dof)
     assert seen[-1][0] == seen[-1][1] and all(b[0] >= a[0] for a, b in zip(seen, seen[1:]))
+
+
+def test_pole_profile_follows_the_modes_gaussian_near_its_optimum():
+    """Near a well-determined optimum the likelihood is quadratic, so the profile over everything but the pole equals the
+    pole's marginal Mahalanobis distance: a pole moved k σ along either principal direction of the mode's pole covariance
+    (the Gauss–Newton Hessian, computed once at the optimum) refits (rate, phase, axis) to Δχ²/s = k² (to 15 %), and the
+    profile-likelihood level of that pole is F_χ²₂(k²)."""
+    rng = np.random.default_rng(11)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
+    res = invert(curves, ELLIPSOID, (59.7, 60.3), **FAST)
+    best = res.best
+    assert pole_profile_chi2(curves, ELLIPSOID, res, best.pole_I)[0] == pytest.approx(best.chi2, abs=1e-6)
+    evals, evecs = np.linalg.eigh(best.covariance[:2, :2])
+    e1, e2 = pole_frame(best.pole_I)[:, 0], pole_frame(best.pole_I)[:, 1]
+    for k, j in ((2.0, 0), (2.0, 1), (1.0, 1)):
+        t = k * np.sqrt(evals[j]) * evecs[:, j]  # tangent offset (t₁, t₂), rad
+        pole = np.cos(np.linalg.norm(t)) * best.pole_I + np.sin(np.linalg.norm(t)) * (t[0] * e1 + t[1] * e2) / np.linalg.norm(t)
+        chi2_p, state = pole_profile_chi2(curves, ELLIPSOID, res, pole)
+        assert np.allclose(state.pole_I, pole, atol=1e-12)
+        assert (chi2_p - best.chi2) / res.chi2_scale == pytest.approx(k**2, rel=0.15)
+        assert res.profile_level(chi2_p) == pytest.approx(chi2_dist.cdf(k**2, 2), abs=0.05)
 
 
 def test_relative_and_calibrated_curves_mix():
@@ -194,10 +217,11 @@ def test_bad_input_names_the_field():
 @pytest.mark.slow
 def test_credible_regions_are_calibrated():
     """20 objects, random poles and phases: the truth falls in the best mode's 68 % and 95 % regions (pole and period,
-    χ²₃) at rates within the binomial 99 % bounds."""
+    χ²₃), and its pole in the profile-likelihood regions (:func:`pole_profile_chi2`), at rates within the binomial 99 % bounds."""
     rng = np.random.default_rng(2026)
     n = 20
     inside = {0.68: 0, 0.95: 0}
+    profile = {0.68: 0, 0.95: 0}
     for _ in range(n):
         pole = rng.normal(size=3)
         truth = SpinState(pole / np.linalg.norm(pole), 60.0 + rng.uniform(-0.1, 0.1), rng.uniform(0, 2 * np.pi), EPOCH)
@@ -205,9 +229,11 @@ def test_credible_regions_are_calibrated():
         res = invert(curves, ELLIPSOID, (59.8, 60.2), rng=rng, **FAST)
         # the mode containing the truth is the one to score (a mirror may be listed first)
         best = min(res.solutions, key=lambda s: s.mahalanobis2(truth.pole_I, truth.period_s))
+        level_truth = res.profile_level(pole_profile_chi2(curves, ELLIPSOID, res, truth.pole_I)[0])
         for level in inside:
             inside[level] += best.contains(truth.pole_I, truth.period_s, level=level)
-    for level, k in inside.items():
+            profile[level] += level_truth <= level
+    for level, k in [*inside.items(), *profile.items()]:
         lo, hi = binom.ppf(0.005, n, level), binom.ppf(0.995, n, level)
         assert lo <= k <= hi, (level, k)
 
