@@ -305,14 +305,18 @@ class _Problem:
         return SpinState(pole, 2 * np.pi / omega, float((chi - psi) % (2 * np.pi)), self.data.epoch, axis)
 
 
+def _pole_phase_frame(state: SpinState, epoch: Time) -> np.ndarray:
+    """``C_IP`` (3, 3) of :class:`_Problem` for ``state`` with its phase carried to the data's ``epoch``: the pole frame turned by φ."""
+    phase = state.phase_rad + state.rate_rad_s * (epoch - state.epoch).to_value("s")
+    return pole_frame(state.pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase]).as_matrix()
+
+
 def profiled_chi2(curves: Sequence[InversionCurve], model, state: SpinState) -> tuple[float, np.ndarray, np.ndarray]:
     """χ² of the curves at a given spin state with the shape's linear parameters and the relative scales solved
     (the likelihood :func:`invert` maximises), with those parameters: (χ², w (m,), s (K,))."""
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
     data = _stack(curves)
-    phase = state.phase_rad + state.rate_rad_s * (data.epoch - state.epoch).to_value("s")
-    C_IP0 = pole_frame(state.pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase]).as_matrix()
-    w, s, r = _Problem(data, model, C_IP0, state.rate_rad_s, axis_frame(state.axis_T), False, False).solve(np.zeros(3))
+    w, s, r = _Problem(data, model, _pole_phase_frame(state, data.epoch), state.rate_rad_s, axis_frame(state.axis_T), False, False).solve(np.zeros(3))
     return float(r @ r), w, s
 
 
@@ -360,8 +364,7 @@ def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: Inversion
     best = (np.inf, None)
     for rank, sol in enumerate(nearest):
         st = sol.state
-        phase = st.phase_rad + st.rate_rad_s * (data.epoch - st.epoch).to_value("s")
-        C_IP = pole_frame(st.pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase]).as_matrix()
+        C_IP = _pole_phase_frame(st, data.epoch)
         axis = np.cross(st.pole_I, p)
         if np.linalg.norm(axis) > 1e-12:
             C_IP = Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.arctan2(np.linalg.norm(axis), st.pole_I @ p)).as_matrix() @ C_IP
@@ -676,20 +679,26 @@ def _half_turns(C_TA: np.ndarray) -> list[np.ndarray]:
     return turned
 
 
-def _half_turned_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
-    """(χ², fit) on the fit's own samples from each of :func:`_half_turns` that ends lower than ``chi2`` by more than 1;
-    each is first tried briefly on the grid samples (``48`` evaluations, as an alias trial) against the unturned fit there,
-    so that a symmetric twin costs two brief fits, not two full ones (the screen's coarse model cannot rank the two)."""
+def _lower_from(fit: _Problem, chi2: float, grid: _Data, starts) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from each start (C_IP, C_TA) at the fit's rate that ends lower than ``chi2`` by
+    more than 1; each is first tried briefly on the grid samples (``48`` evaluations, as an alias trial) against ``fit``
+    there, and only one that ends lower goes on (360 evaluations), so a symmetric twin costs a brief fit, not a full one."""
     on_grid = _Problem(grid, fit.model, fit.C_IP0, fit.omega0, fit.C_TA0, True, True)
     r0 = on_grid.residuals(np.zeros(on_grid.n))
     out = []
-    for C_TA in _half_turns(fit.C_TA0):
-        brief, c = _fit(_Problem(grid, fit.model, fit.C_IP0, fit.omega0, C_TA, True, True), 48)
+    for C_IP, C_TA in starts:
+        brief, c = _fit(_Problem(grid, fit.model, C_IP, fit.omega0, C_TA, True, True), 48)
         if c < float(r0 @ r0) - 1.0:
             full, c_full = _fit(_Problem(fit.data, fit.model, brief.C_IP0, brief.omega0, brief.C_TA0, True, True), 360)
             if c_full < chi2 - 1.0:
                 out.append((c_full, full))
     return out
+
+
+def _half_turned_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
+    """(χ², fit) from each of :func:`_half_turns` that ends lower than ``chi2`` (:func:`_lower_from`; the screen's coarse
+    model cannot rank the two)."""
+    return _lower_from(fit, chi2, grid, [(fit.C_IP0, C_TA) for C_TA in _half_turns(fit.C_TA0)])
 
 
 def _best_phase(data: _Data, model, C_IP: np.ndarray, omega: float, C_TA: np.ndarray, n_phases: int = 24) -> np.ndarray:
@@ -709,23 +718,12 @@ def _other_axis_fits(fit: _Problem, chi2: float, grid: _Data, axes_T: np.ndarray
     draws them (seed 9023: box-wing, five nights) the search found the pole (1.6° off) and the true alias but spun the body
     about a principal axis perpendicular to the truth's, at χ² 49 782 above the truth's. So at each kept optimum every
     other axis is tried: the best phase about it on the grid samples (:func:`_best_phase`), a brief fit there (48
-    evaluations) against the kept fit's χ² there, and only one that ends lower is fitted on the fit's own samples. On the
-    13 vespa objects of those 40 draws (near-symmetric: ±x and ±y fit alike) this costs 35 % more CPU and moves three
-    optima lower (by 2.2, 7.7 and 0.3); gating the full fit on a 5 % gain on the grid saved that CPU but lost those.
+    evaluations) against the kept fit's χ² there, and only one that ends lower is fitted on the fit's own samples
+    (:func:`_lower_from`). On the 13 vespa objects of those 40 draws (near-symmetric: ±x and ±y fit alike) this costs 35 %
+    more CPU and moves three optima lower (by 2.2, 7.7 and 0.3); gating the full fit on a 5 % gain on the grid saved that CPU but lost those.
     """
-    on_grid = _Problem(grid, fit.model, fit.C_IP0, fit.omega0, fit.C_TA0, True, True)
-    r0 = on_grid.residuals(np.zeros(on_grid.n))
-    out = []
-    for a in axes_T:
-        if abs(a @ fit.C_TA0[:, 2]) >= 0.5:
-            continue
-        C_TA = axis_frame(a)
-        brief, c = _fit(_Problem(grid, fit.model, _best_phase(grid, fit.model, fit.C_IP0, fit.omega0, C_TA), fit.omega0, C_TA, True, True), 48)
-        if c < float(r0 @ r0) - 1.0:
-            full, c_full = _fit(_Problem(fit.data, fit.model, brief.C_IP0, brief.omega0, brief.C_TA0, True, True), 360)
-            if c_full < chi2 - 1.0:
-                out.append((c_full, full))
-    return out
+    frames = [axis_frame(a) for a in axes_T if abs(a @ fit.C_TA0[:, 2]) < 0.5]
+    return _lower_from(fit, chi2, grid, [(_best_phase(grid, fit.model, fit.C_IP0, fit.omega0, C_TA), C_TA) for C_TA in frames])
 
 
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
@@ -848,7 +846,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         coarse.append(_quarter_turned(*_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1]))
     n_free = sub.y.size - m - int(data.relative.sum())
     kept = _distinct_within_reach(coarse, n_free)
-    if known:  # the body turned over at each optimum: a near-symmetric shape's other axis sign (:func:`_half_turns`)
+    if known:  # at each optimum the body turned over (a near-symmetric shape's other axis sign) and the other principal axes
         better = [f for chi2, fit in kept for f in _half_turned_fits(fit, chi2, grid) + _other_axis_fits(fit, chi2, grid, axes)]
         if better:
             kept = _distinct_within_reach(coarse + better, n_free)

@@ -103,6 +103,12 @@ def test_pole_profile_follows_the_modes_gaussian_near_its_optimum():
         assert np.allclose(state.pole_I, pole, atol=1e-12)
         assert (chi2_p - best.chi2) / res.chi2_scale == pytest.approx(k**2, rel=0.15)
         assert res.profile_level(chi2_p) == pytest.approx(chi2_dist.cdf(k**2, 2), abs=0.05)
+    for bad, match in (([0.0, 0.0, 0.0], "pole_I"), ([np.nan, 0.0, 1.0], "pole_I"), ([1.0, 0.0], "pole_I")):
+        with pytest.raises(ValueError, match=match):
+            pole_profile_chi2(curves, ELLIPSOID, res, bad)
+    with pytest.raises(ValueError, match="n_starts"):
+        pole_profile_chi2(curves, ELLIPSOID, res, best.pole_I, n_starts=0)
+    assert np.isnan(res.profile_level(best.chi2 - 5.0))  # below the best: a missed optimum, no region describes it
 
 
 def test_relative_and_calibrated_curves_mix():
