@@ -16,7 +16,8 @@ installs a handler that
   callback such as Dask's ``GCDiagnosis``, a finaliser), Python would print
   "Exception ignored in ..." with a traceback and go on; :func:`_on_unraisable`
   instead stays silent and sends the interrupt again to the main thread, where
-  it unwinds as above;
+  it unwinds as above; any other error a finaliser raises after Ctrl-C (an
+  object the interrupt left half-built) is silenced as well;
 * ends the process with status 130 if unwinding (or the interpreter's exit after
   it) takes longer than :data:`GRACE_S` or a second Ctrl-C arrives (``os._exit``; a killed run's temporary files are
   removed by the next command on the same ``--out``, see :func:`studies.engine.io.clean_stale`).
@@ -116,11 +117,17 @@ def _on_unraisable(unraisable) -> None:
 
     Measured: 3 of 8 ``study tuning --quick`` interrupted as their progress bar appeared raised it inside Dask's
     garbage-collector callback; Python printed "Exception ignored in ... GCDiagnosis._gc_callback" with the traceback,
-    and the study ran on to its end before exiting 130. Any other unraisable goes to the hook that was installed before.
+    and the study ran on to its end before exiting 130. After Ctrl-C any other unraisable is silenced too (the command
+    is being aborted; a finaliser failing on what the interrupt cut short is not news); before it, an unraisable goes to
+    the hook that was installed before.
     """
-    if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt) and _interrupted.is_set():
-        _redeliver.set()
-        _send_again_soon()
+    if _interrupted.is_set() and unraisable.exc_type is not None:
+        if issubclass(unraisable.exc_type, KeyboardInterrupt):
+            _redeliver.set()
+            _send_again_soon()
+        # else: the echo of the interrupt in a finaliser of an object it left half-built, silenced (measured in CI:
+        # Ctrl-C inside numba's compiler left an llvmlite ``OutputString`` without ``_ptr``; its ``close`` raised
+        # AttributeError and Python printed "Exception ignored in ..." with a traceback before ``lcnav: aborted``)
         return
     _previous_hook[0](unraisable)
 
