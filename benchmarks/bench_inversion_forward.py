@@ -135,6 +135,7 @@ def run() -> str:
         *speeds,
         "",
         "Model times: best of 3, one core (numba). Per-facet: the same model with its normals jittered by 1e-9 rad, so the kernel "
-        "evaluates the BRDF once per facet instead of once per group of facets sharing normals and material. Mitsuba's time is the measured per-sample time of the 240 default-film renders "
+        "evaluates the BRDF once per facet instead of once per group of facets sharing normals and material. "
+        "Mitsuba's time is the measured per-sample time of the 240 default-film renders "
         "× 1800. The build includes the shadow table (Mitsuba `ray_test`, 16 points per facet).",
     ])
