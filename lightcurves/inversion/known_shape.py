@@ -54,6 +54,7 @@ Torrance, ACM TOG 1 (1982); Walter, Marschner, Li & Torrance, EGSR 2007.
 from __future__ import annotations
 
 import functools
+import threading
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -179,7 +180,7 @@ class _SphereInterpolator:
         """Indices (N, 3) of the corner directions, weights (N, 3) summing to 1, and the weights' gradients (N, 3, 3) with
         respect to a small rotation ρ of the queries (q → q + ρ × q), for unit queries ``q`` (N, 3)."""
         idx, w, dw = np.empty((len(q), 3), np.int64), np.empty((len(q), 3)), np.empty((len(q), 3, 3))
-        kernel = _locate_parallel if len(q) >= _PARALLEL_QUERIES else _locate_serial
+        kernel = _locate_parallel if _on_all_cores(len(q), _PARALLEL_QUERIES) else _locate_serial
         kernel(np.ascontiguousarray(q, dtype=float), self.directions, *self.cells, _CELL_ROWS, _CELL_COLS, self.around, self.inv, self.tri, idx, w, dw)
         return idx, w, dw
 
@@ -226,9 +227,16 @@ def _locate(q, directions, offsets, indices, n_rows, n_cols, around, inv, tri, i
             dw[i, r, 2] = (dw[i, r, 2] - w[i, r] * g2) / total
 
 
-_locate_serial = numba.njit(cache=True)(_locate)
+_locate_serial = numba.njit(cache=True, nogil=True)(_locate)
 _locate_parallel = numba.njit(cache=True, parallel=True)(_locate)
 _PARALLEL_QUERIES = 8192  #: batches at least this large are located on all cores
+
+
+def _on_all_cores(n: int, threshold: int) -> bool:
+    """Whether a batch of ``n`` runs the parallel kernel: large enough, and called from the main thread. Called from another
+    thread (:func:`lightcurves.inversion.search.invert` fits several starts at once), the serial kernel releases the GIL
+    (``nogil``) and runs beside the others; numba's parallel kernels are not to be launched from several threads at once."""
+    return n >= threshold and threading.current_thread() is threading.main_thread()
 
 
 # ---------------------------------------------------------------- facets
@@ -513,7 +521,7 @@ def _intensity_sum(sun, obs, half, ks, ws, ko, wo, dws, dwo, starts, axis, sin_h
 # One core for the ~10⁴ calls per inversion on a few hundred samples (the fits), where OpenMP threads cost more than they save
 # (measured 2.2× the CPU time of the serial kernel on a 3 × 600 inversion on the shared machine); the cores for the phase
 # screen's tables (~10⁵ samples a call), where each sample's sum is the same serial loop (the same result to the bit).
-_intensity_kernel = numba.njit(cache=True, fastmath=True)(_intensity_sum)
+_intensity_kernel = numba.njit(cache=True, fastmath=True, nogil=True)(_intensity_sum)
 _intensity_kernel_parallel = numba.njit(cache=True, fastmath=True, parallel=True)(_intensity_sum)
 _PARALLEL_SAMPLES = 8192  #: batches at least this large run on all cores
 
@@ -788,7 +796,7 @@ class KnownShapeModel:
         out = np.empty(len(sun))
         torque = np.zeros((len(sun), 3)) if grad else np.zeros((1, 3))
         masks = self.vis_masks if len(self.vis_masks) else np.zeros((1, 1), np.uint16)
-        kernel = _intensity_kernel_parallel if len(sun) >= _PARALLEL_SAMPLES else _intensity_kernel
+        kernel = _intensity_kernel_parallel if _on_all_cores(len(sun), _PARALLEL_SAMPLES) else _intensity_kernel
         kernel(sun, obs, half, ks, ws, ko, wo, dws, dwo, *self._packed, np.ascontiguousarray(fresnel), masks, _POPCOUNT16, out, torque, grad)
         return out * self.irradiance_w_m2, torque * self.irradiance_w_m2
 

@@ -40,11 +40,17 @@ the shape's).
    covariances from the Gauss–Newton Hessian of the profiled residuals; modes merged and weighted in :mod:`.posterior`.
 4. On request, the pole's profile likelihood at any pole (:func:`pole_profile_chi2`): where the likelihood is a ridge
    or a plateau that the modes' Gaussians do not hold.
+
+The fits of one stage (the candidate poles' alias trials, the subsample fits, the turned and other-axis trials, the
+refinements on all data) are independent: ``workers`` threads run them at once (the facet kernel releases the GIL), and
+each stage's results are taken in their order, so the result does not depend on ``workers``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import os
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import astropy.units as u
@@ -61,7 +67,7 @@ from lightcurves.inversion.posterior import InversionResult, SpinSolution, disti
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
 
-__all__ = ["invert", "profiled_chi2", "pole_profile_chi2", "period_grid"]
+__all__ = ["invert", "profiled_chi2", "pole_profile_chi2", "period_grid", "default_workers"]
 
 _PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
 
@@ -507,6 +513,21 @@ def _period_minima(row: np.ndarray, n: int) -> np.ndarray:
     return idx[np.argsort(row[idx])][:n]
 
 
+def default_workers() -> int:
+    """The cores this process may run on (its CPU affinity), the default ``workers`` of :func:`invert`."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _each(fn: Callable, items: Iterable, workers: int) -> Iterable:
+    """``fn`` of each item in order, on up to ``workers`` threads (the module docstring), yielded as each becomes available."""
+    items = list(items)
+    if workers <= 1 or len(items) < 2:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(min(workers, len(items))) as pool:
+        yield from pool.map(fn, items)
+
+
 def _fit(problem: _Problem, max_nfev: int) -> tuple[_Problem, float]:
     """Least-squares fit of θ from 0, returned re-centred at the optimum (θ = 0 there) with its χ²."""
     fit = least_squares(problem.residuals, np.zeros(problem.n), jac=problem.jac if problem.analytic else "2-point", method="trf", x_scale=1.0,
@@ -750,6 +771,18 @@ def _pole_period_map(problem: _Problem, cov_theta: np.ndarray) -> tuple[np.ndarr
     return cov, phase_sigma, axis_sigma
 
 
+def _check_options(pole_step_deg: float, screen_rel_error: float, workers: int | None) -> int:
+    """:func:`invert`'s search options checked (a named error for a bad one); the number of worker threads."""
+    if not (np.isfinite(pole_step_deg) and 0.5 <= pole_step_deg <= 45):
+        raise ValueError(f"pole_step_deg: {pole_step_deg!r}: expected a spacing in [0.5, 45] deg")
+    if not (np.isfinite(screen_rel_error) and screen_rel_error >= 0):
+        raise ValueError(f"screen_rel_error: {screen_rel_error!r}: expected a relative error >= 0")
+    workers = default_workers() if workers is None else workers
+    if not (isinstance(workers, (int, np.integer)) and workers >= 1):
+        raise ValueError(f"workers: {workers!r}: expected an integer >= 1")
+    return int(workers)
+
+
 def _validate(curves, period_range_s) -> tuple[float, float]:
     if isinstance(curves, InversionCurve):
         curves = [curves]
@@ -768,7 +801,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
            progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
            n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
            axes_T=None, n_phases: int = 48, n_refine_samples: int = 150, screen_known_facets: int = 48, n_aliases: int = 40,
-           screen_rel_error: float = 0.03) -> InversionResult:
+           screen_rel_error: float = 0.03, workers: int | None = None) -> InversionResult:
     """Spin state(s) of one object from its light curves: all modes the data cannot tell apart (module docstring).
 
     Parameters
@@ -796,13 +829,12 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         for a pole 58° off, and the search ended 145° off.
     n_aliases : the rate minima of each candidate pole's screen row from which up to 4 untried ones are fitted briefly besides
         the alias comb (step 2 of the module docstring; fewer when the range holds fewer cycle-count aliases).
+    workers : threads that run a stage's independent fits at once (default :func:`default_workers`; the result is the same
+        for any number).
     """
     lo, hi = _validate(curves, period_range_s)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
-    if not (np.isfinite(pole_step_deg) and 0.5 <= pole_step_deg <= 45):
-        raise ValueError(f"pole_step_deg: {pole_step_deg!r}: expected a spacing in [0.5, 45] deg")
-    if not (np.isfinite(screen_rel_error) and screen_rel_error >= 0):
-        raise ValueError(f"screen_rel_error: {screen_rel_error!r}: expected a relative error >= 0")
+    workers = _check_options(pole_step_deg, screen_rel_error, workers)
     data = _stack(curves)
     m = np.asarray(model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))).shape[1]
     known = m == 1
@@ -832,26 +864,36 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     mids = [0.5 * (data.t_s[data.curve == k].min() + data.t_s[data.curve == k].max()) for k in range(data.relative.size)]
     n_aliases = min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * np.ptp(mids) / (2 * np.pi))) + 1)
     trials = []  # known shape: per candidate pole, (χ², fit) of the screen's model on the grid samples
-    for ip in _local_minima(poles, chi2_map)[:n_candidates]:
+
+    def candidate(ip: int) -> list[tuple[float, _Problem]]:
         if known:
-            trials.append(_alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
-                                        n_periods_per_pole, n_aliases))
+            return _alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
+                                 n_periods_per_pole, n_aliases)
+        return [_fit(_Problem(sub, model, pole_frame(poles[ip]), omegas[iw], np.eye(3), False, False), 180)[::-1]
+                for iw in _period_minima(chi2_grid[ip], n_periods_per_pole)]
+
+    for found in _each(candidate, _local_minima(poles, chi2_map)[:n_candidates], workers):
+        if known:
+            trials.append(found)
         else:
-            for iw in _period_minima(chi2_grid[ip], n_periods_per_pole):
-                coarse.append(_fit(_Problem(sub, model, pole_frame(poles[ip]), omegas[iw], np.eye(3), False, False), 180)[::-1])
+            coarse.extend(found)
         done += n_periods_per_pole
         if progress is not None:
             progress(done, n_total)
-    for trial in _trials_to_fit(trials, grid.y.size - 1 - int(data.relative.sum())):
-        coarse.append(_quarter_turned(*_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1]))
+
+    def full_fit(trial: _Problem) -> tuple[float, _Problem]:
+        return _quarter_turned(*_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
+
+    coarse.extend(_each(full_fit, _trials_to_fit(trials, grid.y.size - 1 - int(data.relative.sum())), workers))
     n_free = sub.y.size - m - int(data.relative.sum())
     kept = _distinct_within_reach(coarse, n_free)
     if known:  # at each optimum the body turned over (a near-symmetric shape's other axis sign) and the other principal axes
-        better = [f for chi2, fit in kept for f in _half_turned_fits(fit, chi2, grid) + _other_axis_fits(fit, chi2, grid, axes)]
+        better = [f for found in _each(lambda k: _half_turned_fits(k[1], k[0], grid) + _other_axis_fits(k[1], k[0], grid, axes), kept, workers)
+                  for f in found]
         if better:
             kept = _distinct_within_reach(coarse + better, n_free)
     kept = [fit for _, fit in kept]
-    fits = [_refine(k, data) for k in kept]
+    fits = list(_each(lambda k: _refine(k, data), kept, workers))
     if progress is not None and done < n_total:  # fewer local minima than n_candidates: the bar still ends full
         progress(n_total, n_total)
     return _posterior(fits, data, model, poles, chi2_map, 2 * np.pi / omegas[best_w])

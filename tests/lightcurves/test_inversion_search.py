@@ -269,3 +269,24 @@ def test_analytic_jacobian_of_the_profiled_residuals_equals_central_differences(
     np.testing.assert_array_equal(r, problem.residuals(theta))
     fd = problem.jacobian(theta, step=1e-6)
     assert np.all(np.abs(J - fd).max(axis=0) <= 1e-5 * np.abs(fd).max(axis=0)), np.abs(J - fd).max(axis=0) / np.abs(fd).max(axis=0)
+
+
+def test_the_result_does_not_depend_on_the_number_of_worker_threads():
+    """A stage's independent fits run on ``workers`` threads and are taken in their order: the known-shape search (box-wing,
+    its facet kernel run from several threads at once) gives the same modes, χ² and states with 1 and 3 threads."""
+    from lightcurves.inversion.known_shape import KnownShapeModel
+    from lightcurves.targets import get_target
+
+    model = KnownShapeModel.from_target(get_target("box-wing"))
+    rng = np.random.default_rng(21)
+    truth = SpinState(pole_from_radec(2.0, 0.4), 120.0, 0.5, EPOCH)
+    curves = _observe_curves(truth, model, _passes(rng, n=60, nights=2), rng)
+    one, three = (invert(curves, model, (119.0, 121.0), workers=w, **FAST) for w in (1, 3))
+    assert len(one.solutions) == len(three.solutions) >= 1
+    for a, b in zip(one.solutions, three.solutions):
+        assert a.chi2 == b.chi2 and a.probability == b.probability
+        np.testing.assert_array_equal(a.state.pole_I, b.state.pole_I)
+        np.testing.assert_array_equal(a.state.axis_T, b.state.axis_T)
+        assert a.state.period_s == b.state.period_s
+    with pytest.raises(ValueError, match="workers"):
+        invert(curves, model, (119.0, 121.0), workers=0, **FAST)
