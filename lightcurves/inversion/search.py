@@ -59,6 +59,7 @@ from astropy.time import Time
 from scipy.optimize import least_squares, nnls
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
+from threadpoolctl import ThreadpoolController
 
 from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
 from lightcurves.inversion.data import InversionCurve
@@ -69,6 +70,7 @@ from lightcurves.render import observed_flux
 
 __all__ = ["invert", "profiled_chi2", "pole_profile_chi2", "period_grid", "default_workers"]
 
+_BLAS = ThreadpoolController()
 _PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
 
 
@@ -343,7 +345,7 @@ class _FixedPole:
 
 
 def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: InversionResult, pole_I, *, n_starts: int = 3,
-                      max_nfev: int = 60, n_scan_samples: int = 60) -> tuple[float, SpinState]:
+                      max_nfev: int = 60, n_scan_samples: int = 60, workers: int | None = None) -> tuple[float, SpinState]:
     """The profile likelihood of the pole: the smallest χ² at the pole direction ``pole_I`` over the rest of the spin
     state (rate, phase, and a known shape's body axis; the linear parameters profiled as in :func:`invert`), with the
     state reaching it.
@@ -354,10 +356,11 @@ def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: Inversion
     principal axis ⟂ their own at its best phase (:func:`_best_phase`, on ``n_scan_samples`` per curve): a near-symmetric body (vespa about ±x and ±y) fits
     one night almost as well about either, with poles a σ apart, and a fit never turns the axis that far. Its χ² less the
     best mode's, over the result's scale s, is the profile-likelihood statistic of the pole, ~χ²₂ at the true pole
-    (Wilks 1938; :meth:`InversionResult.profile_level`).
+    (Wilks 1938; :meth:`InversionResult.profile_level`). The starts' fits run on ``workers`` threads as in :func:`invert`.
     """
     if not (isinstance(n_starts, (int, np.integer)) and n_starts >= 1):
         raise ValueError(f"n_starts: {n_starts!r}: expected an integer >= 1")
+    workers = _workers(workers)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
     data = _stack(curves)
     p = np.asarray(pole_I, dtype=float)
@@ -367,7 +370,7 @@ def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: Inversion
     known = model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])).shape[1] == 1
     nearest = sorted(result.solutions, key=lambda sol: -float(sol.pole_I @ p))
     scan = _subsample(data, n_scan_samples)  # the phase scan only picks a start
-    best = (np.inf, None)
+    starts = []  # (C_IP, rate, C_TA)
     for rank, sol in enumerate(nearest):
         st = sol.state
         C_IP = _pole_phase_frame(st, data.epoch)
@@ -376,16 +379,22 @@ def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: Inversion
             C_IP = Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.arctan2(np.linalg.norm(axis), st.pole_I @ p)).as_matrix() @ C_IP
         elif st.pole_I @ p < 0:  # the antipode: a half turn about an axis ⟂ the pole
             C_IP = Rotation.from_rotvec(np.pi * C_IP[:, 0]).as_matrix() @ C_IP
-        starts = [(C_IP, axis_frame(st.axis_T) if known else np.eye(3))]
+        starts.append((C_IP, st.rate_rad_s, axis_frame(st.axis_T) if known else np.eye(3)))
         if known and rank < n_starts:
-            starts += [(_best_phase(scan, model, C_IP, st.rate_rad_s, axis_frame(a)), axis_frame(a)) for a in _PRINCIPAL_AXES if abs(a @ st.axis_T) < 0.5]
-        for C_IP0, C_TA in starts:
-            problem = _Problem(data, model, C_IP0, st.rate_rad_s, C_TA, known, known)
-            held = _FixedPole(problem)
-            fit = least_squares(held.residuals, np.zeros(problem.n - 2), jac=held.jac if problem.analytic else "2-point", method="trf",
-                                diff_step=1e-6, max_nfev=max_nfev)
-            if 2.0 * fit.cost < best[0]:
-                best = (2.0 * float(fit.cost), problem.state(np.concatenate([np.zeros(2), fit.x])))
+            starts += [(_best_phase(scan, model, C_IP, st.rate_rad_s, axis_frame(a)), st.rate_rad_s, axis_frame(a))
+                       for a in _PRINCIPAL_AXES if abs(a @ st.axis_T) < 0.5]
+
+    def held_fit(start) -> tuple[float, SpinState]:
+        problem = _Problem(data, model, start[0], start[1], start[2], known, known)
+        held = _FixedPole(problem)
+        fit = least_squares(held.residuals, np.zeros(problem.n - 2), jac=held.jac if problem.analytic else "2-point", method="trf",
+                            diff_step=1e-6, max_nfev=max_nfev)
+        return 2.0 * float(fit.cost), problem.state(np.concatenate([np.zeros(2), fit.x]))
+
+    best = (np.inf, None)
+    for chi2, state in _each(held_fit, starts, workers):
+        if chi2 < best[0]:  # the first of equal ones, whatever the number of threads
+            best = (chi2, state)
     return best
 
 
@@ -524,7 +533,9 @@ def _each(fn: Callable, items: Iterable, workers: int) -> Iterable:
     if workers <= 1 or len(items) < 2:
         yield from map(fn, items)
         return
-    with ThreadPoolExecutor(min(workers, len(items))) as pool:
+    # one BLAS thread each: the fits' small LAPACK calls (least_squares' SVD of an N × 6 Jacobian) from several threads
+    # into a multi-threaded OpenBLAS wait on each other
+    with _BLAS.limit(limits=1, user_api="blas"), ThreadPoolExecutor(min(workers, len(items))) as pool:
         yield from pool.map(fn, items)
 
 
@@ -777,6 +788,11 @@ def _check_options(pole_step_deg: float, screen_rel_error: float, workers: int |
         raise ValueError(f"pole_step_deg: {pole_step_deg!r}: expected a spacing in [0.5, 45] deg")
     if not (np.isfinite(screen_rel_error) and screen_rel_error >= 0):
         raise ValueError(f"screen_rel_error: {screen_rel_error!r}: expected a relative error >= 0")
+    return _workers(workers)
+
+
+def _workers(workers: int | None) -> int:
+    """The number of worker threads asked (:func:`default_workers` for None), checked."""
     workers = default_workers() if workers is None else workers
     if not (isinstance(workers, (int, np.integer)) and workers >= 1):
         raise ValueError(f"workers: {workers!r}: expected an integer >= 1")

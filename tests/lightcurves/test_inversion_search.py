@@ -273,7 +273,8 @@ def test_analytic_jacobian_of_the_profiled_residuals_equals_central_differences(
 
 def test_the_result_does_not_depend_on_the_number_of_worker_threads():
     """A stage's independent fits run on ``workers`` threads and are taken in their order: the known-shape search (box-wing,
-    its facet kernel run from several threads at once) gives the same modes, χ² and states with 1 and 3 threads."""
+    its facet kernel run from several threads at once) gives the same modes, χ² and states with 1 and 3 threads, and so
+    does the pole's profile."""
     from lightcurves.inversion.known_shape import KnownShapeModel
     from lightcurves.targets import get_target
 
@@ -290,3 +291,8 @@ def test_the_result_does_not_depend_on_the_number_of_worker_threads():
         assert a.state.period_s == b.state.period_s
     with pytest.raises(ValueError, match="workers"):
         invert(curves, model, (119.0, 121.0), workers=0, **FAST)
+    # the pole's profile: its starts' fits on threads too
+    elsewhere = pole_from_radec(0.5, -0.2)
+    (c1, s1), (c3, s3) = (pole_profile_chi2(curves, model, one, elsewhere, n_starts=1, max_nfev=20, workers=w) for w in (1, 3))
+    assert c1 == c3 and s1.period_s == s3.period_s
+    np.testing.assert_array_equal(s1.axis_T, s3.axis_T)
