@@ -59,7 +59,7 @@ from astropy.time import Time
 from scipy.optimize import least_squares, nnls
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
-from threadpoolctl import ThreadpoolController
+from threadpoolctl import threadpool_limits
 
 from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
 from lightcurves.inversion.data import InversionCurve
@@ -70,7 +70,6 @@ from lightcurves.render import observed_flux
 
 __all__ = ["invert", "profiled_chi2", "pole_profile_chi2", "period_grid", "default_workers"]
 
-_BLAS = ThreadpoolController()
 _PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
 
 
@@ -535,7 +534,7 @@ def _each(fn: Callable, items: Iterable, workers: int) -> Iterable:
         return
     # one BLAS thread each: the fits' small LAPACK calls (least_squares' SVD of an N × 6 Jacobian) from several threads
     # into a multi-threaded OpenBLAS wait on each other
-    with _BLAS.limit(limits=1, user_api="blas"), ThreadPoolExecutor(min(workers, len(items))) as pool:
+    with threadpool_limits(limits=1, user_api="blas"), ThreadPoolExecutor(min(workers, len(items))) as pool:
         yield from pool.map(fn, items)
 
 
