@@ -81,7 +81,8 @@ from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, bisector_rate, find_
 from lightcurves.inversion.io import from_lightcurve
 from lightcurves.inversion.convex import fibonacci_sphere
 from lightcurves.inversion.known_shape import KnownShapeModel
-from lightcurves.inversion.search import invert, period_grid, pole_profile_chi2, profiled_chi2
+from lightcurves.inversion.profile import pole_profile_chi2
+from lightcurves.inversion.search import invert, period_grid, profiled_chi2
 from lightcurves.inversion.spin import C_LIGHT_M_S, SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import UnresolvedRenderer, observed_flux
 from lightcurves.simulate import DEFAULT_EPOCH, simulate_lightcurve
@@ -536,7 +537,7 @@ def _coverage_cell(hits: np.ndarray, level: float) -> str:
 
 def coverage_table(rows: list[dict]) -> str:
     """Coverage of the 68 / 95 % regions: best mode (pole 2-D, pole + period 3-D), the mixture of all listed modes and the
-    pole's profile likelihood (:func:`~lightcurves.inversion.search.pole_profile_chi2`)."""
+    pole's profile likelihood (:func:`~lightcurves.inversion.profile.pole_profile_chi2`)."""
     lines = ["| region | 68 % | 95 % |", "|---|---|---|"]
     kinds = (("best mode, pole (2-D)", "in{}_pole", None), ("best mode, pole + period (3-D)", "in{}_3d", None),
              ("mixture of modes, pole (2-D)", None, "mix_level_pole"), ("mixture of modes, pole + period (3-D)", None, "mix_level_3d"),

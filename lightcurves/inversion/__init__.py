@@ -8,7 +8,9 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
   geometry (Sun and observer directions in the inertial frame I), the input of everything here.
 * :mod:`~lightcurves.inversion.spin` — :class:`SpinState`, the attitude of a principal-axis rotation.
 * :mod:`~lightcurves.inversion.convex` — :class:`ConvexModel` (free facet areas), :class:`EllipsoidModel`.
-* :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement; :func:`pole_profile_chi2`: the pole's profile likelihood.
+* :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement.
+* :mod:`~lightcurves.inversion.profile` — the pole's profile likelihood: :func:`pole_profile_chi2` at one pole,
+  :func:`pole_profile_region` over the region it defines.
 * :mod:`~lightcurves.inversion.phase_screen` — the known-shape screen over pole × body axis × rate × phase.
 * :mod:`~lightcurves.inversion.posterior` — :class:`SpinSolution`, :class:`InversionResult`.
 * :mod:`~lightcurves.inversion.known_shape` — :class:`KnownShapeModel`, a known target as facets: its intensity (W/sr) as Mitsuba renders it.
@@ -26,7 +28,9 @@ from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.known_shape import KnownShapeModel
 from lightcurves.inversion.posterior import InversionResult, SpinSolution
-from lightcurves.inversion.search import invert, pole_profile_chi2
+from lightcurves.inversion.profile import PoleProfileRegion, pole_profile_chi2, pole_profile_region
+from lightcurves.inversion.search import invert
 from lightcurves.inversion.spin import SpinState
 
-__all__ = ["InversionCurve", "SpinState", "ConvexModel", "EllipsoidModel", "KnownShapeModel", "SpinSolution", "InversionResult", "invert", "pole_profile_chi2"]
+__all__ = ["InversionCurve", "SpinState", "ConvexModel", "EllipsoidModel", "KnownShapeModel", "SpinSolution", "InversionResult", "invert", "pole_profile_chi2",
+           "pole_profile_region", "PoleProfileRegion"]

@@ -208,7 +208,7 @@ class InversionResult:
 
     def profile_level(self, chi2_at_pole: float) -> float:
         """The smallest level of the profile-likelihood region that holds a pole whose profile χ² is ``chi2_at_pole``
-        (:func:`lightcurves.inversion.search.pole_profile_chi2`): F_χ²₂((χ²(p) − χ²_min)/s), Wilks' law for the pole's
+        (:func:`lightcurves.inversion.profile.pole_profile_chi2`): F_χ²₂((χ²(p) − χ²_min)/s), Wilks' law for the pole's
         two degrees of freedom with the χ² differences scaled by s as the modes' (eq. 1). The region of level α holds the
         poles with a level ≤ α: it follows a ridge of the likelihood that the modes' Gaussians cut short. NaN when the
         pole's χ² is below the best mode's by more than 1: the search missed an optimum, and no region of this result

@@ -38,7 +38,7 @@ the shape's).
    optimum within :data:`REFINE_REACH` of the best — on all data, in the rotation-vector increment of the pole frame,
    the rate, and for a known shape the body axis (its Jacobian analytic: :meth:`_Problem.residuals_and_jacobian`);
    covariances from the Gauss–Newton Hessian of the profiled residuals; modes merged and weighted in :mod:`.posterior`.
-4. On request, the pole's profile likelihood at any pole (:func:`pole_profile_chi2`): where the likelihood is a ridge
+4. On request, the pole's profile likelihood at any pole or over its region (:mod:`.profile`): where the likelihood is a ridge
    or a plateau that the modes' Gaussians do not hold.
 
 The fits of one stage (the candidate poles' alias trials, the subsample fits, the turned and other-axis trials, the
@@ -68,7 +68,7 @@ from lightcurves.inversion.posterior import InversionResult, SpinSolution, disti
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
 
-__all__ = ["invert", "profiled_chi2", "pole_profile_chi2", "period_grid", "default_workers"]
+__all__ = ["invert", "profiled_chi2", "period_grid", "default_workers"]
 
 _PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
 
@@ -325,76 +325,6 @@ def profiled_chi2(curves: Sequence[InversionCurve], model, state: SpinState) -> 
     data = _stack(curves)
     w, s, r = _Problem(data, model, _pole_phase_frame(state, data.epoch), state.rate_rad_s, axis_frame(state.axis_T), False, False).solve(np.zeros(3))
     return float(r @ r), w, s
-
-
-class _FixedPole:
-    """A :class:`_Problem` with its pole held: θ without (δ₁, δ₂), the pole-frame turn about the pole (the phase) kept."""
-
-    def __init__(self, problem: _Problem):
-        self.problem = problem
-
-    def _theta(self, x) -> np.ndarray:
-        return np.concatenate([np.zeros(2), x])
-
-    def residuals(self, x) -> np.ndarray:
-        return self.problem.residuals(self._theta(x))
-
-    def jac(self, x) -> np.ndarray:
-        return self.problem.jac(self._theta(x))[:, 2:]
-
-
-def pole_profile_chi2(curves: Sequence[InversionCurve], model, result: InversionResult, pole_I, *, n_starts: int = 3,
-                      max_nfev: int = 60, n_scan_samples: int = 60, workers: int | None = None) -> tuple[float, SpinState]:
-    """The profile likelihood of the pole: the smallest χ² at the pole direction ``pole_I`` over the rest of the spin
-    state (rate, phase, and a known shape's body axis; the linear parameters profiled as in :func:`invert`), with the
-    state reaching it.
-
-    Fitted (``least_squares``, ``max_nfev`` evaluations, the pole held) from every mode of ``result``, each turned onto
-    it by the smallest rotation, so a ridge or a plateau of the pole's likelihood between and around the modes is followed
-    where their Gaussians stop; for a known shape the ``n_starts`` modes nearest to ``pole_I`` are also started about every
-    principal axis ⟂ their own at its best phase (:func:`_best_phase`, on ``n_scan_samples`` per curve): a near-symmetric body (vespa about ±x and ±y) fits
-    one night almost as well about either, with poles a σ apart, and a fit never turns the axis that far. Its χ² less the
-    best mode's, over the result's scale s, is the profile-likelihood statistic of the pole, ~χ²₂ at the true pole
-    (Wilks 1938; :meth:`InversionResult.profile_level`). The starts' fits run on ``workers`` threads as in :func:`invert`.
-    """
-    if not (isinstance(n_starts, (int, np.integer)) and n_starts >= 1):
-        raise ValueError(f"n_starts: {n_starts!r}: expected an integer >= 1")
-    workers = _workers(workers)
-    curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
-    data = _stack(curves)
-    p = np.asarray(pole_I, dtype=float)
-    if p.shape != (3,) or not np.all(np.isfinite(p)) or np.linalg.norm(p) == 0:
-        raise ValueError(f"pole_I: {pole_I!r}: expected a finite non-zero 3-vector")
-    p = p / np.linalg.norm(p)
-    known = model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])).shape[1] == 1
-    nearest = sorted(result.solutions, key=lambda sol: -float(sol.pole_I @ p))
-    scan = _subsample(data, n_scan_samples)  # the phase scan only picks a start
-    starts = []  # (C_IP, rate, C_TA)
-    for rank, sol in enumerate(nearest):
-        st = sol.state
-        C_IP = _pole_phase_frame(st, data.epoch)
-        axis = np.cross(st.pole_I, p)
-        if np.linalg.norm(axis) > 1e-12:
-            C_IP = Rotation.from_rotvec(axis / np.linalg.norm(axis) * np.arctan2(np.linalg.norm(axis), st.pole_I @ p)).as_matrix() @ C_IP
-        elif st.pole_I @ p < 0:  # the antipode: a half turn about an axis ⟂ the pole
-            C_IP = Rotation.from_rotvec(np.pi * C_IP[:, 0]).as_matrix() @ C_IP
-        starts.append((C_IP, st.rate_rad_s, axis_frame(st.axis_T) if known else np.eye(3)))
-        if known and rank < n_starts:
-            starts += [(_best_phase(scan, model, C_IP, st.rate_rad_s, axis_frame(a)), st.rate_rad_s, axis_frame(a))
-                       for a in _PRINCIPAL_AXES if abs(a @ st.axis_T) < 0.5]
-
-    def held_fit(start) -> tuple[float, SpinState]:
-        problem = _Problem(data, model, start[0], start[1], start[2], known, known)
-        held = _FixedPole(problem)
-        fit = least_squares(held.residuals, np.zeros(problem.n - 2), jac=held.jac if problem.analytic else "2-point", method="trf",
-                            diff_step=1e-6, max_nfev=max_nfev)
-        return 2.0 * float(fit.cost), problem.state(np.concatenate([np.zeros(2), fit.x]))
-
-    best = (np.inf, None)
-    for chi2, state in _each(held_fit, starts, workers):
-        if chi2 < best[0]:  # the first of equal ones, whatever the number of threads
-            best = (chi2, state)
-    return best
 
 
 def period_grid(period_range_s: tuple[float, float], span_s: float, oversampling: float = 1.0) -> np.ndarray:

@@ -16,7 +16,9 @@ from lightcurves.geometry import KeplerOrbit, observe
 from lightcurves.inversion.convex import ConvexModel, EllipsoidModel
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.posterior import laplace_probabilities
-from lightcurves.inversion.search import invert, period_grid, pole_profile_chi2, profiled_chi2
+from lightcurves.inversion.posterior import tangent_offset
+from lightcurves.inversion.profile import pole_profile_chi2, pole_profile_region
+from lightcurves.inversion.search import invert, period_grid, profiled_chi2
 from lightcurves.inversion.frames import pole_from_radec
 from lightcurves.inversion.spin import SpinState, body_directions, pole_frame
 from lightcurves.render import observed_flux
@@ -109,6 +111,43 @@ def test_pole_profile_follows_the_modes_gaussian_near_its_optimum():
     with pytest.raises(ValueError, match="n_starts"):
         pole_profile_chi2(curves, ELLIPSOID, res, best.pole_I, n_starts=0)
     assert np.isnan(res.profile_level(best.chi2 - 5.0))  # below the best: a missed optimum, no region describes it
+
+
+def test_pole_profile_region_is_the_modes_ellipse_where_the_likelihood_is_quadratic():
+    """The mapped region (:func:`pole_profile_region`) on the exact ellipsoid model with 3 nights. Near a mode the
+    profile is its Gaussian's quadratic form plus higher orders: here the likelihood is skewed along the pole's best-known
+    direction (Λ 0.68 and 1.08 one σ either side), so the even part, (Λ(x) + Λ(−x))/2 = xᵀΣ⁻¹x + O(|x|⁴), is what must equal
+    the pole's marginal Mahalanobis distance from the mode (the profile of a Gaussian is its Schur complement; to 20 % + 0.2
+    at every grid node and its mirror within the 99 % ellipse). The 95 % region's area is the 95 % ellipse's
+    π χ²₂(0.95) √det Σ (to 35 %: a grid of one-σ cells), the fill closes, and its poles do not depend on the threads."""
+    rng = np.random.default_rng(11)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
+    res = invert(curves, ELLIPSOID, (59.7, 60.3), **FAST)
+    best = res.best
+    seen = []
+    region = pole_profile_region(curves, ELLIPSOID, res, workers=1, progress=lambda n, m: seen.append(n))
+    assert region.complete and seen[-1] == region.chi2.size and region.chi2.size >= 30
+    lam = (region.chi2 - region.chi2_min) / region.chi2_scale
+    cov_inv = np.linalg.inv(best.pole_covariance_rad2)
+    offsets = np.array([tangent_offset(best.pole_I, p) for p in region.poles_I])
+    maha2 = np.einsum("ni,ij,nj->n", offsets, cov_inv, offsets)
+    mirror = np.argmin(np.linalg.norm(offsets[:, None, :] + offsets[None, :, :], axis=2), axis=1)  # the node at −x
+    pairs = (np.linalg.norm(offsets + offsets[mirror], axis=1) < 1e-3 * np.sqrt(np.trace(best.pole_covariance_rad2))) & (maha2 < chi2_dist.ppf(0.99, 2))
+    assert pairs.sum() >= 20
+    even = 0.5 * (lam + lam[mirror])
+    assert np.all(np.abs(even[pairs] - maha2[pairs]) <= 0.2 * maha2[pairs] + 0.2)
+    assert region.level[0] < 1e-3 and np.allclose(region.states[0].pole_I, best.pole_I)
+    ellipse_deg2 = np.pi * chi2_dist.ppf(0.95, 2) * np.sqrt(np.linalg.det(best.pole_covariance_rad2)) * np.degrees(1.0) ** 2
+    assert region.solid_angle_deg2(0.95) == pytest.approx(ellipse_deg2, rel=0.35)
+    assert np.all(region.level[region.inside(0.68)] <= 0.68) and region.inside(0.95).sum() > region.inside(0.68).sum()
+    two = pole_profile_region(curves, ELLIPSOID, res, workers=2)
+    assert np.array_equal(two.poles_I, region.poles_I) and np.array_equal(two.chi2, region.chi2)
+    cut = pole_profile_region(curves, ELLIPSOID, res, max_poles=5)
+    assert not cut.complete and cut.chi2.size == 5
+    for bad, match in ((dict(max_level=1.0), "max_level"), (dict(max_poles=0), "max_poles"), (dict(max_step_deg=0.0), "max_step_deg")):
+        with pytest.raises(ValueError, match=match):
+            pole_profile_region(curves, ELLIPSOID, res, **bad)
 
 
 def test_relative_and_calibrated_curves_mix():
