@@ -12,10 +12,13 @@ as the modes' are). The region of level α holds the poles with F_χ²₂(Λ) �
 Where the likelihood is quadratic, Λ is the pole's marginal Mahalanobis distance from the mode (the profile of a
 Gaussian is its Schur complement), so the region is the mode's ellipse; where it is not, the region follows the data.
 
-:func:`pole_profile_region` maps that region: on a Fibonacci lattice of poles it starts at the lattice pole nearest to
-each listed mode and fills outwards, neighbour by neighbour, while Λ stays within ``max_level``; each new pole's fit starts
-from the lowest-χ² state of its already mapped neighbours turned onto it (a continuation along the ridge, one held fit
-per pole), so the cost is the region's area over the lattice cell, not the sphere's.
+:func:`pole_profile_region` maps that region. The modes at one pole (aliases, other body axes) share a grid in the tangent
+plane of the most probable of them, along its principal pole directions one σ a step; from the modes' own nodes the map
+fills outwards, neighbour by neighbour, while Λ stays within ``max_level``. Each new node's fit starts from the lowest-χ²
+mapped neighbour of each branch (the mode it descends from) turned onto it: a continuation along the ridge, one held fit
+per node and branch, so the cost is the region's area in σ², not the sphere's. Measured on the inversion benchmark's
+three timing objects (3 nights × 600 samples, 2 threads, to Λ at 99 %): box-wing 61 poles in 0.5 s, atlas-centaur (16
+modes in 2 groups) 133 poles in 5.5 s, vespa (15 modes, σ 4–8°) 323 poles in 257 s.
 """
 
 from __future__ import annotations
