@@ -11,6 +11,7 @@ Kaasalainen, Torppa & Muinonen, Icarus 153, 2001); this module chooses its input
   equal maxima looks single-peaked at half the rotation period);
 * :func:`run_inversion` — one search per period range; the modes of all searches merged;
 * :func:`fitted_brightness` — each curve's model brightness at a solution (for the fit figures and the recording);
+* :func:`profile_regions` — on request (``--pole-region``), the pole's profile-likelihood region of each search;
 * :func:`result_dict` / :func:`solutions_table` — the JSON of ``--json`` and the table of ``--out``.
 
 Every period here is sidereal; the single-night period is synodic, which the 1 % floor (and the
@@ -204,11 +205,43 @@ def solution_dict(solution, probability: float, known_shape: bool) -> dict:
     return d
 
 
-def result_dict(run: InversionRun, files: Sequence[str], seed: int) -> dict:
-    """The whole ``--json`` document: solutions best first, fit quality, inputs and the period ranges searched."""
+def profile_regions(run: InversionRun, progress: Callable[[int, int], None] | None = None) -> tuple:
+    """The pole's profile-likelihood region of each search of ``run`` (:func:`lightcurves.inversion.profile.pole_profile_region`,
+    its defaults: mapped to the 99 % level), in the order of ``run.results``; ``progress(n_done, n_total)`` over all of them."""
+    from lightcurves.inversion.profile import MAX_REGION_POLES, pole_profile_region
+
+    out = []
+    for k, res in enumerate(run.results):
+        step = None if progress is None else (lambda n, m, k=k: progress(k * MAX_REGION_POLES + n, len(run.results) * MAX_REGION_POLES))
+        out.append(pole_profile_region(run.curves, res.model, res, progress=step))
+    if progress is not None:
+        progress(len(run.results) * MAX_REGION_POLES, len(run.results) * MAX_REGION_POLES)
+    return tuple(out)
+
+
+def region_dict(region, period_range: PeriodRange) -> dict:
+    """One profile-likelihood region in the JSON form of ``--json``: its areas, and every mapped pole within the mapped
+    level (ecliptic and equatorial J2000, deg; the level F_χ²₂(Λ) at which it enters the region; the sidereal period there)."""
+    from lightcurves.inversion.frames import pole_to_ecliptic, pole_to_radec
+
+    keep = region.inside(region.max_level)
+    poles = []
+    for pole, level, state in zip(region.poles_I[keep], region.level[keep], np.asarray(region.states, dtype=object)[keep]):
+        lon, lat = np.degrees(pole_to_ecliptic(pole))
+        ra, dec = np.degrees(pole_to_radec(pole))
+        poles.append({"pole_ecliptic_lon_deg": float(lon), "pole_ecliptic_lat_deg": float(lat), "pole_ra_deg": float(ra),
+                      "pole_dec_deg": float(dec), "level": float(level), "sidereal_period_h": state.period_s / SECONDS_PER_HOUR})
+    return {"period_range": period_range.to_dict(), "mapped_to_level": region.max_level, "complete": bool(region.complete),
+            "n_poles_mapped": int(region.chi2.size), "solid_angle_68_deg2": region.solid_angle_deg2(0.68),
+            "solid_angle_95_deg2": region.solid_angle_deg2(0.95), "chi2_min_mapped": region.min_chi2, "poles": poles}
+
+
+def result_dict(run: InversionRun, files: Sequence[str], seed: int, regions: Sequence = ()) -> dict:
+    """The whole ``--json`` document: solutions best first, fit quality, inputs and the period ranges searched; with
+    ``regions`` (:func:`profile_regions`) also ``pole_profile_regions``, one per range (:func:`region_dict`)."""
     best, res = run.solutions[0]
     n = int(sum(len(c) for c in run.curves))
-    return {
+    doc = {
         "solutions": [solution_dict(s, p, run.known_shape) for (s, _), p in zip(run.solutions, run.probabilities)],
         "fit": {"chi2": float(best.chi2), "dof": int(res.dof), "chi2_per_dof": float(best.chi2 / max(res.dof, 1)),
                 "chi2_scale": float(res.chi2_scale), "n_points": n, "n_curves": len(run.curves),
@@ -221,6 +254,9 @@ def result_dict(run: InversionRun, files: Sequence[str], seed: int) -> dict:
         "seed": int(seed),
         "time_s": float(run.time_s),
     }
+    if regions:
+        doc["pole_profile_regions"] = [region_dict(r, pr) for r, pr in zip(regions, run.ranges)]
+    return doc
 
 
 def solutions_table(doc: dict) -> pd.DataFrame:

@@ -3,7 +3,8 @@
 * :func:`plot_pole_posterior` — a Mollweide map in ecliptic J2000 (λ, β) of exp(−Δχ²/(2 s)) from the
   search's screening map (best χ² over periods at each grid pole, s the result's χ² scale), with each
   solution's 68 % and 95 % ellipse (the χ²₂ contours of its tangent-plane covariance, mapped onto the
-  sphere by the exponential map) and its probability; mirror solutions show as separate islands;
+  sphere by the exponential map) and its probability; mirror solutions show as separate islands; with the pole's
+  profile-likelihood regions (``--pole-region``) their mapped poles inside 68 % (filled) and 95 % (open circles);
 * :func:`plot_night_fit` — one curve's observed brightness (with 1-σ bars) and the fitted model against
   time, and the normalised residuals (observed − fitted)/σ below.
 """
@@ -21,6 +22,8 @@ from studies.catalog.figures import pyplot, save_png
 
 #: Credible levels drawn around each solution.
 LEVELS = (0.68, 0.95)
+#: Colour of the profile-likelihood region's poles (seen on the dark map and on the legend's white).
+REGION_COLOR = "#ff4fd8"
 #: Solutions below this probability are marked (grey ×) but not labelled or given ellipses (the best always is).
 MIN_LABELLED_PROBABILITY = 1e-3
 
@@ -58,8 +61,20 @@ def _broken(lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.insert(lon, jump, np.nan), np.insert(lat, jump, np.nan)
 
 
-def plot_pole_posterior(run, path: Path) -> None:
-    """Pole posterior on the ecliptic sky (module docstring), written to ``path`` (PNG)."""
+def _plot_regions(ax, regions) -> None:
+    """The mapped poles of the profile-likelihood ``regions`` inside 95 % (open) and 68 % (filled), in REGION_COLOR."""
+    for level, face, name in ((0.95, "none", "95 %"), (0.68, REGION_COLOR, "68 %")):
+        inside = [r.poles_I[r.inside(level)] for r in regions]
+        pts = np.concatenate(inside) if inside else np.zeros((0, 3))
+        if pts.size:
+            lo, la = _lonlat_deg(pts)
+            ax.scatter(np.radians(lo), np.radians(la), s=10, facecolors=face, edgecolors=REGION_COLOR, linewidths=0.8, zorder=3,
+                       label=f"profile-likelihood region {name} ({pts.shape[0]} poles mapped inside)")
+
+
+def plot_pole_posterior(run, path: Path, regions: tuple = ()) -> None:
+    """Pole posterior on the ecliptic sky (module docstring), written to ``path`` (PNG); ``regions``: the pole's
+    profile-likelihood regions (:func:`studies.catalog.inversion.profile_regions`), drawn when given."""
     plt = pyplot()
     scale = max(r.chi2_scale for r in run.results)
     poles = np.concatenate([r.pole_grid_I for r in run.results])
@@ -90,6 +105,7 @@ def plot_pole_posterior(run, path: Path) -> None:
                 label=f"#{k + 1}  p = {p:.3g}   λ {lo % 360:.1f}°  β {la:+.1f}°  ±{sol.pole_sigma_deg:.2g}°   P = {sol.period_s / 3600:.8g} h")
         ax.annotate(f"{k + 1}", (np.radians(lo), np.radians(la)), xytext=(6, 4 + 9 * (k % 3)), textcoords="offset points", color=col,
                     fontsize=9, fontweight="bold")
+    _plot_regions(ax, regions)
     rest = [k for k in range(len(run.solutions)) if k not in shown]
     if rest:
         lo, la = _lonlat_deg(np.array([run.solutions[k][0].pole_I for k in rest]))
@@ -101,7 +117,8 @@ def plot_pole_posterior(run, path: Path) -> None:
     ax.set_ylabel("ecliptic latitude β")
     ax.tick_params(axis="x", colors="0.85", labelsize=8)
     cb = fig.colorbar(mesh, ax=ax, orientation="horizontal", fraction=0.05, pad=0.08, shrink=0.5)
-    cb.set_label(f"exp(−Δχ²/2s) of the screening grid (coarse convex model, best period per pole), s = {scale:.3g}")
+    screen = "coarse copy of the shape, best period, axis and phase" if run.known_shape else "coarse convex model, best period"
+    cb.set_label(f"exp(−Δχ²/2s) of the screening grid ({screen} per pole), s = {scale:.3g}")
     fig.subplots_adjust(left=0.07, right=0.68, top=0.9, bottom=0.08)
     ax.set_title(f"Pole posterior — {run.shape}, {len(run.curves)} curves; ellipses 68 % (solid) and 95 % (dashed)", fontsize=11)
     save_png(fig, path)

@@ -3,7 +3,7 @@
 ::
 
     lcnav lightcurve invert night1.ecsv night2.ecsv night3.ecsv [--shape TARGET|convex|ellipsoid:A,B,C]
-        [--period-range-h MIN,MAX] [--json] [--out DIR] [--record FILE.rrd] [--seed N] [--quick]
+        [--period-range-h MIN,MAX] [--json] [--out DIR] [--record FILE.rrd] [--seed N] [--quick] [--pole-region]
 
 Files: lcnav ECSV with geometry (``lcnav lightcurve render --epoch --site``), DAMIT/convexinv text, or CSV
 with geometry columns (:func:`lightcurves.inversion.io.read_inversion_curves`). Everything is validated
@@ -14,7 +14,10 @@ Output: one line per solution (best first) on stdout, or with ``--json`` the doc
 stderr is a terminal and never with ``--json`` (stdout stays pure JSON either way). ``--out DIR`` writes
 ``inversion.json``, ``solutions.csv``/``.parquet``, ``pole_posterior.png`` and ``fit_night_<k>.png``
 as one unit (:func:`studies.engine.io.output_folder`); ``--record`` a rerun recording
-(:mod:`studies.recording.inversion`).
+(:mod:`studies.recording.inversion`). ``--pole-region`` also maps the pole's profile-likelihood region around every
+mode (:func:`lightcurves.inversion.profile.pole_profile_region`): the credible region that follows a ridge or a plateau
+of the likelihood where the modes' Gaussians stop; it is printed as a summary line, listed in the JSON
+(``pole_profile_regions``) and drawn on the pole figure and in the recording.
 """
 
 from __future__ import annotations
@@ -85,13 +88,13 @@ def _check_trials(ranges, curves, oversampling: float) -> None:
                            "(narrow the range: a night's light curve gives the period to ~1 %)")
 
 
-def _progress_bar(enabled: bool):
+def _progress_bar(enabled: bool, desc: str = "invert"):
     """A tqdm bar on stderr fed by ``progress(n_done, n_total)``, or a no-op; returns (progress, close)."""
     if not enabled:
         return None, lambda: None
     from tqdm import tqdm
 
-    bar = tqdm(total=None, unit="step", desc="invert", leave=False, file=sys.stderr)
+    bar = tqdm(total=None, unit="step", desc=desc, leave=False, file=sys.stderr)
 
     def progress(done, total):
         bar.total = total
@@ -110,7 +113,14 @@ def _text_line(rank: int, s: dict) -> str:
             f"P={s['sidereal_period_h']:.8g} ± {s['sidereal_period_sigma_h']:.2g} h  phase {s['phase_deg']:.1f}° at JD {s['epoch_jd']:.6f}{axis}")
 
 
-def _write_out(out: Path, run, doc: dict, fitted: list) -> None:
+def _region_line(r: dict) -> str:
+    inside = {lv: sum(p["level"] <= lv for p in r["poles"]) for lv in (0.68, 0.95)}
+    return (f"pole profile-likelihood region ({r['period_range']['min_h']:.6g} to {r['period_range']['max_h']:.6g} h): "
+            f"95 % {r['solid_angle_95_deg2']:.3g} deg² ({inside[0.95]} poles), 68 % {r['solid_angle_68_deg2']:.3g} deg² ({inside[0.68]} poles); "
+            f"{r['n_poles_mapped']} poles mapped to {100 * r['mapped_to_level']:g} %" + ("" if r["complete"] else " (stopped at the pole limit: incomplete)"))
+
+
+def _write_out(out: Path, run, doc: dict, fitted: list, regions: tuple) -> None:
     from studies.catalog.inversion import solutions_table
     from studies.catalog.inversion_figures import plot_night_fit, plot_pole_posterior
     from studies.engine.io import output_folder, write_json, write_table
@@ -118,7 +128,7 @@ def _write_out(out: Path, run, doc: dict, fitted: list) -> None:
     with output_folder(out, "lightcurve invert") as stage:
         write_json(stage / "inversion.json", doc)
         write_table(stage / "solutions.parquet", solutions_table(doc), csv=True)
-        plot_pole_posterior(run, stage / "pole_posterior.png")
+        plot_pole_posterior(run, stage / "pole_posterior.png", regions)
         for k, (c, f) in enumerate(zip(run.curves, fitted)):
             plot_night_fit(c, f, stage / f"fit_night_{k + 1}.png", f"curve {k + 1}: {c.name or 'unnamed'} ({'calibrated' if c.calibrated else 'relative'})")
 
@@ -135,9 +145,11 @@ def invert_command(
     record: Path | None = typer.Option(None, help="write a rerun recording (.rrd)", callback=v.out_file(".rrd")),
     seed: int = typer.Option(0, help="seed of the search's random pole-lattice rotation", callback=v.seed()),
     quick: bool = typer.Option(False, help="a coarser, faster search (15° pole lattice, 60 samples per curve in the grid, 6 pole minima refined)"),
+    pole_region: bool = typer.Option(False, help="also map the pole's profile-likelihood region (refits with the pole held around every "
+                                                 "mode: seconds for a well-determined pole, minutes for a ridge of a heavy model)"),
 ) -> None:
     """Invert light curves of one object to its spin state: pole, sidereal period, phase and (known shape) body axis."""
-    from studies.catalog.inversion import PeriodRange, derived_period_ranges, fitted_brightness, result_dict, run_inversion
+    from studies.catalog.inversion import PeriodRange, derived_period_ranges, fitted_brightness, profile_regions, result_dict, run_inversion
 
     shape = _shape(shape)
     given = None if period_range_h is None else _period_range_s(period_range_h)
@@ -156,20 +168,29 @@ def invert_command(
         run = run_inversion(curves, shape, ranges, rng=np.random.default_rng(seed), progress=progress, search_options=SEARCH_OPTIONS[quick])
     finally:
         close()
-    doc = result_dict(run, [str(f) for f in files], seed)
+    regions = ()
+    if pole_region:
+        progress, close = _progress_bar(not as_json and sys.stderr.isatty(), "pole region")
+        try:
+            regions = profile_regions(run, progress)
+        finally:
+            close()
+    doc = result_dict(run, [str(f) for f in files], seed, regions)
     best, res = run.solutions[0]
     fitted = fitted_brightness(best, res, run.curves) if (out is not None or record is not None) else None
     if out is not None:
-        _write_out(out, run, doc, fitted)
+        _write_out(out, run, doc, fitted, regions)
     if record is not None:
         from studies.recording.inversion import write_inversion_recording
 
-        write_inversion_recording(record, run, fitted, doc)
+        write_inversion_recording(record, run, fitted, doc, regions)
     if as_json:
         typer.echo(json.dumps(doc, indent=2))
         return
     for k, s in enumerate(doc["solutions"], start=1):
         typer.echo(_text_line(k, s))
+    for r in doc.get("pole_profile_regions", []):
+        typer.echo(_region_line(r))
     fit = doc["fit"]
     typer.echo(f"fit: χ²/dof {fit['chi2_per_dof']:.3f} ({fit['n_points']} points, {fit['n_curves']} curves, {doc['shape_mode']} shape); "
                f"periods searched: " + "; ".join(f"{r['min_h']:.6g} to {r['max_h']:.6g} h ({r['source']})" for r in doc["period_ranges"])

@@ -11,6 +11,8 @@ Entities (``sim_time`` = seconds since each curve's first sample, so every night
 ``/inversion/solutions/<k>``               solution k's pole (``rr.Arrows3D`` from the centre, labelled
                                            with its probability and period) and its 68 % / 95 % contours
                                            (``rr.LineStrips3D``)
+``/inversion/profile_region``              with ``--pole-region``: the mapped poles inside the profile-likelihood
+                                           region (``rr.Points3D``; white inside 68 %, yellow inside 95 %)
 ``/inversion/summary``                     the ``--json`` document (markdown)
 =========================================  ==============================================================
 
@@ -58,8 +60,9 @@ def _magma(x: np.ndarray) -> np.ndarray:
     return (255 * np.asarray(matplotlib.colormaps["magma"](np.clip(x, 0.0, 1.0)))[:, :3]).astype(np.uint8)
 
 
-def write_inversion_recording(path: Path, run, fitted: list, doc: dict) -> None:
-    """Log ``run`` (:class:`studies.catalog.inversion.InversionRun`), the best solution's ``fitted`` curves and ``doc`` to ``path``."""
+def write_inversion_recording(path: Path, run, fitted: list, doc: dict, regions: tuple = ()) -> None:
+    """Log ``run`` (:class:`studies.catalog.inversion.InversionRun`), the best solution's ``fitted`` curves, ``doc`` and the
+    pole's profile-likelihood ``regions`` (when given) to ``path``."""
     import rerun as rr
 
     path = Path(path)
@@ -84,4 +87,10 @@ def write_inversion_recording(path: Path, run, fitted: list, doc: dict) -> None:
             rec.log(f"/inversion/solutions/{k + 1}", rr.Arrows3D(vectors=[1.25 * sol.pole_I], labels=[label], colors=[(46, 196, 255)]), static=True)
             rec.log(f"/inversion/solutions/{k + 1}/regions", rr.LineStrips3D([1.01 * ellipse_I(sol, lv) for lv in LEVELS],
                                                                               colors=[(46, 196, 255), (255, 209, 102)]), static=True)
+        inside = [r.inside(0.95) for r in regions]
+        if any(m.any() for m in inside):
+            pts = np.concatenate([r.poles_I[m] for r, m in zip(regions, inside)])
+            lv = np.concatenate([r.level[m] for r, m in zip(regions, inside)])
+            rec.log("/inversion/profile_region", rr.Points3D(1.005 * pts, colors=np.where((lv <= 0.68)[:, None], [[255, 255, 255]], [[255, 209, 102]]),
+                                                            radii=0.01), static=True)
         rec.log("/inversion/summary", rr.TextDocument("```json\n" + json.dumps(doc, indent=2) + "\n```", media_type="text/markdown"), static=True)

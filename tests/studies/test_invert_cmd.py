@@ -173,15 +173,25 @@ def test_coplanar_geometry_lists_both_mirror_poles(tmp_path, capsys):
     lcs = tmp_path / "coplanar.txt"
     lcs.write_text(damit_text(_observe(geometry, SpinState(pole, PERIOD_S, 0.4, epoch), rng)))
     argv = ["lightcurve", "invert", str(lcs), "--shape", "ellipsoid:" + ",".join(map(str, SEMI_AXES_M)), "--period-range-h",
-            _period_arg(0.998, 1.002), "--quick", "--json"]  # fmt: skip
+            _period_arg(0.998, 1.002), "--quick", "--json", "--pole-region", "--out", str(tmp_path / "out"), "--record", str(tmp_path / "inv.rrd")]  # fmt: skip
     assert main(argv) == 0
-    sols = json.loads(capsys.readouterr().out)["solutions"]
+    doc = json.loads(capsys.readouterr().out)
+    sols = doc["solutions"]
     mirror = np.array([-pole[0], -pole[1], pole[2]])  # turned by 180° about the plane's normal (I's z)
     near = [min(_angle_deg(s["pole_I"], p) for s in sols) for p in (pole, mirror)]
     assert max(near) < 5.0, (near, [(s["pole_I"], s["probability"]) for s in sols])
     p_true = sum(s["probability"] for s in sols if _angle_deg(s["pole_I"], pole) < 5.0)
     p_mirror = sum(s["probability"] for s in sols if _angle_deg(s["pole_I"], mirror) < 5.0)
     assert min(p_true, p_mirror) > 0.2, (p_true, p_mirror)  # the data cannot tell them apart
+    # --pole-region: the profile-likelihood region has an island at each of the two poles, each within its mode's 3σ
+    (region,) = doc["pole_profile_regions"]
+    assert region["complete"] and region["solid_angle_95_deg2"] > 0
+    inside = [pole_from_ecliptic(np.radians(q["pole_ecliptic_lon_deg"]), np.radians(q["pole_ecliptic_lat_deg"])) for q in region["poles"] if q["level"] <= 0.95]
+    for p in (pole, mirror):
+        sol = min(sols, key=lambda s: _angle_deg(s["pole_I"], p))
+        assert 0 < sum(_angle_deg(q, sol["pole_I"]) < 3.0 * sol["pole_sigma_deg"] for q in inside)
+    assert_rrd_verifies(tmp_path / "inv.rrd")
+    assert json.loads((tmp_path / "out" / "inversion.json").read_text())["pole_profile_regions"] == doc["pole_profile_regions"]
 
 
 @pytest.mark.parametrize(("extra", "message"), [
