@@ -44,6 +44,10 @@ __all__ = ["pole_profile_chi2", "pole_profile_region", "PoleProfileRegion"]
 MAX_REGION_POLES = 600
 
 
+#: Coarsest grid step of :func:`pole_profile_region`'s restarts, in σ of the lead mode (4⁶: six restarts at most).
+MAX_STEP_SIGMAS = 4.0**6
+
+
 class _FixedPole:
     """A :class:`_Problem` with its pole held: θ without (δ₁, δ₂), the pole-frame turn about the pole (the phase) kept."""
 
@@ -154,6 +158,7 @@ class PoleProfileRegion:
     complete: bool
     chi2_min: float  #: the best mode's χ² (eq. 1's χ²_min)
     chi2_scale: float  #: the result's s
+    step_sigmas: float = 1.0  #: the grids' step in σ of their lead mode (more than 1 when a finer map hit ``max_poles``)
 
     @property
     def min_chi2(self) -> float:
@@ -178,11 +183,11 @@ def _check_region_options(max_level, max_poles, max_step_deg) -> None:
         raise ValueError(f"max_step_deg: {max_step_deg!r}: expected a grid step in (0, 20] deg")
 
 
-def _grid_axes(solution, max_step_deg: float) -> np.ndarray:
+def _grid_axes(solution, max_step_deg: float, sigmas: float = 1.0) -> np.ndarray:
     """(2, 2) tangent offsets (rad, basis of :func:`~lightcurves.inversion.spin.pole_frame`) of one grid step along i and j:
-    the mode's principal pole directions, one σ each, at most ``max_step_deg``."""
+    the mode's principal pole directions, ``sigmas`` σ each, at most ``max_step_deg``."""
     evals, evecs = np.linalg.eigh(solution.pole_covariance_rad2)
-    return evecs * np.minimum(np.sqrt(np.maximum(evals, 0.0)), np.radians(max_step_deg))
+    return evecs * np.minimum(sigmas * np.sqrt(np.maximum(evals, 0.0)), np.radians(max_step_deg))
 
 
 def _exp_pole(solution, offset: np.ndarray) -> np.ndarray:
@@ -192,7 +197,7 @@ def _exp_pole(solution, offset: np.ndarray) -> np.ndarray:
     return solution.pole_I if r == 0 else np.cos(r) * C[:, 2] + np.sin(r) / r * (C[:, :2] @ offset)
 
 
-def _groups(result: InversionResult, included: list[int], max_level: float, max_step_deg: float) -> list[tuple[int, dict]]:
+def _groups(result: InversionResult, included: list[int], max_level: float, max_step_deg: float, sigmas: float) -> list[tuple[int, dict]]:
     """The modes ``included`` grouped onto shared grids: (lead mode, {node: [mode, ...]}). A mode joins the first group whose
     lead's pole Gaussian holds its pole within ``max_level`` (an alias or an axis of the same pole: their profiles meet), at
     the lead's grid node nearest to it; otherwise it leads a group of its own at node (0, 0)."""
@@ -203,7 +208,7 @@ def _groups(result: InversionResult, included: list[int], max_level: float, max_
         for lead, seeds in groups:
             x = tangent_offset(result.solutions[lead].pole_I, sol.pole_I)
             if x @ np.linalg.solve(result.solutions[lead].pole_covariance_rad2, x) <= bound:
-                node = tuple(int(v) for v in np.round(np.linalg.solve(_grid_axes(result.solutions[lead], max_step_deg), x)))
+                node = tuple(int(v) for v in np.round(np.linalg.solve(_grid_axes(result.solutions[lead], max_step_deg, sigmas), x)))
                 seeds.setdefault(node, []).append(m)
                 break
         else:
@@ -228,6 +233,34 @@ def _next_wave(mapped: dict, grow: list) -> dict:
     return wave
 
 
+def _map(fit: Callable, level: Callable, result: InversionResult, max_level: float, max_step_deg: float, sigmas: float,
+         max_poles: int, workers: int, progress) -> tuple[list, bool]:
+    """One fill of :func:`pole_profile_region` on grids of ``sigmas`` σ a step: (rows (pole, χ², state, branch, cell deg²),
+    complete)."""
+    rows = []
+    complete = True
+    included = [m for m, s in enumerate(result.solutions) if level(s.chi2) <= max_level]
+    for lead, seeds in _groups(result, included, max_level, max_step_deg, sigmas):
+        sol = result.solutions[lead]
+        A = _grid_axes(sol, max_step_deg, sigmas)
+        cell = float(abs(np.linalg.det(A))) * np.degrees(1.0) ** 2
+        mapped: dict[tuple[int, int], tuple[float, SpinState, int]] = {}
+        wave = {node: [(result.solutions[m].state, m) for m in members] for node, members in seeds.items()}
+        while wave and complete:
+            if len(rows) + len(wave) > max_poles:
+                complete = False
+                wave = dict(sorted(wave.items())[: max_poles - len(rows)])
+            items = sorted(wave.items())
+            poles = [_exp_pole(sol, A @ np.array(node, dtype=float)) for node, _ in items]
+            for (node, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
+                mapped[node] = found
+                rows.append((pole, found[0], found[1], found[2], cell))
+            if progress is not None:
+                progress(len(rows), max_poles)
+            wave = _next_wave(mapped, [node for node, _ in items if level(mapped[node][0]) <= max_level])
+    return rows, complete
+
+
 def pole_profile_region(curves: Sequence[InversionCurve], model, result: InversionResult, *, max_level: float = 0.99,
                         max_poles: int = MAX_REGION_POLES, max_step_deg: float = 5.0, max_nfev: int = 60, workers: int | None = None,
                         progress: Callable[[int, int], None] | None = None) -> PoleProfileRegion:
@@ -240,8 +273,11 @@ def pole_profile_region(curves: Sequence[InversionCurve], model, result: Inversi
     mapped node whose level is ≤ ``max_level`` is fitted with the pole held (:func:`_held_fit`, ``max_nfev`` evaluations)
     from the lowest-χ² mapped neighbour of each branch (the mode it descends from) around it, and keeps the lowest: where
     two modes' branches meet, the profile is the lower of them. A wave's fits run on ``workers`` threads and are taken in
-    grid order, so the map does not depend on their number. A grid ends when no node is left to map; all stop (``complete``
-    False) once ``max_poles`` poles are mapped. ``progress(n_mapped, max_poles)`` after each wave.
+    grid order, so the map does not depend on their number. A grid ends when no node is left to map. When ``max_poles``
+    poles are mapped before every grid ends (a plateau of one night: hundreds of deg² around a sharp mode), the map starts
+    again on grids four times as coarse (4, 16, 64 … σ a step, each covering 16 times the area), until it closes, every step
+    is at ``max_step_deg`` or the step is :data:`MAX_STEP_SIGMAS` σ; then it returns the last map, ``complete`` False.
+    ``progress(n_mapped, max_poles)`` after each wave (from 0 again at each restart).
     """
     _check_region_options(max_level, max_poles, max_step_deg)
     workers = _workers(workers)
@@ -262,27 +298,14 @@ def pole_profile_region(curves: Sequence[InversionCurve], model, result: Inversi
                 best = (chi2, st, branch)
         return best
 
-    rows = []  # (pole, chi2, state, mode, cell)
-    complete = True
-    for lead, seeds in _groups(result, [m for m, s in enumerate(result.solutions) if level(s.chi2) <= max_level], max_level, max_step_deg):
-        sol = result.solutions[lead]
-        A = _grid_axes(sol, max_step_deg)
-        cell = float(abs(np.linalg.det(A))) * np.degrees(1.0) ** 2
-        mapped: dict[tuple[int, int], tuple[float, SpinState, int]] = {}
-        wave = {node: [(result.solutions[m].state, m) for m in members] for node, members in seeds.items()}
-        while wave and complete:
-            if len(rows) + len(wave) > max_poles:
-                complete = False
-                wave = dict(sorted(wave.items())[: max_poles - len(rows)])
-            items = sorted(wave.items())
-            poles = [_exp_pole(sol, A @ np.array(node, dtype=float)) for node, _ in items]
-            for (node, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
-                mapped[node] = found
-                rows.append((pole, found[0], found[1], found[2], cell))
-            if progress is not None:
-                progress(len(rows), max_poles)
-            wave = _next_wave(mapped, [node for node, _ in items if level(mapped[node][0]) <= max_level])
+    smallest_sigma_deg = min(float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(s.pole_covariance_rad2)[0], 0.0)))) for s in result.solutions)
+    sigmas = 1.0
+    while True:
+        rows, complete = _map(fit, level, result, max_level, max_step_deg, sigmas, max_poles, workers, progress)
+        if complete or sigmas * smallest_sigma_deg >= max_step_deg or sigmas >= MAX_STEP_SIGMAS:
+            break
+        sigmas *= 4.0
     chi2 = np.array([r[1] for r in rows])
     return PoleProfileRegion(np.array([r[0] for r in rows]).reshape(-1, 3), chi2, tuple(r[2] for r in rows),
                              chi2_dist.cdf(np.maximum(chi2 - chi2_min, 0.0) / result.chi2_scale, 2), np.array([r[3] for r in rows], dtype=int),
-                             np.array([r[4] for r in rows]), float(max_level), complete, float(chi2_min), float(result.chi2_scale))
+                             np.array([r[4] for r in rows]), float(max_level), complete, float(chi2_min), float(result.chi2_scale), sigmas)

@@ -144,7 +144,8 @@ def test_pole_profile_region_is_the_modes_ellipse_where_the_likelihood_is_quadra
     two = pole_profile_region(curves, ELLIPSOID, res, workers=2)
     assert np.array_equal(two.poles_I, region.poles_I) and np.array_equal(two.chi2, region.chi2)
     cut = pole_profile_region(curves, ELLIPSOID, res, max_poles=5)
-    assert not cut.complete and cut.chi2.size == 5
+    assert not cut.complete and cut.chi2.size == 5  # restarted on coarser grids until every step is at max_step_deg
+    assert cut.step_sigmas * np.degrees(np.sqrt(np.linalg.eigvalsh(best.pole_covariance_rad2)[0])) >= 5.0 and region.step_sigmas == 1.0
     for bad, match in ((dict(max_level=1.0), "max_level"), (dict(max_poles=0), "max_poles"), (dict(max_step_deg=0.0), "max_step_deg")):
         with pytest.raises(ValueError, match=match):
             pole_profile_region(curves, ELLIPSOID, res, **bad)
