@@ -159,6 +159,21 @@ class PoleProfileRegion:
     chi2_min: float  #: the best mode's χ² (eq. 1's χ²_min)
     chi2_scale: float  #: the result's s
     step_sigmas: float = 1.0  #: the grids' step in σ of their lead mode (more than 1 when a finer map hit ``max_poles``)
+    grids: tuple = ()  #: per group of modes, (lead pole (3,), grid step matrix A (2, 2) rad, {node (i, j): row})
+
+    def level_at(self, pole_I) -> float:
+        """The region's level at any pole: that of the grid node whose cell holds it (the node its tangent offset from a
+        group's lead pole rounds to, ``A⁻¹ x``), the lowest over the groups; 1 where no mapped cell holds it (beyond
+        ``max_level``, or never reached)."""
+        p = _unit_pole(pole_I)
+        levels = [1.0]
+        for lead, A, nodes in self.grids:
+            if lead @ p <= 0:  # the far hemisphere: no tangent offset of this grid reaches it
+                continue
+            row = nodes.get(tuple(int(v) for v in np.round(np.linalg.solve(A, tangent_offset(lead, p)))))
+            if row is not None:
+                levels.append(float(self.level[row]))
+        return min(levels)
 
     @property
     def min_chi2(self) -> float:
@@ -234,10 +249,10 @@ def _next_wave(mapped: dict, grow: list) -> dict:
 
 
 def _map(fit: Callable, level: Callable, result: InversionResult, max_level: float, max_step_deg: float, sigmas: float,
-         max_poles: int, workers: int, progress) -> tuple[list, bool]:
+         max_poles: int, workers: int, progress) -> tuple[list, bool, tuple]:
     """One fill of :func:`pole_profile_region` on grids of ``sigmas`` σ a step: (rows (pole, χ², state, branch, cell deg²),
-    complete)."""
-    rows = []
+    complete, grids (:attr:`PoleProfileRegion.grids`))."""
+    rows, grids = [], []
     complete = True
     included = [m for m, s in enumerate(result.solutions) if level(s.chi2) <= max_level]
     for lead, seeds in _groups(result, included, max_level, max_step_deg, sigmas):
@@ -245,6 +260,7 @@ def _map(fit: Callable, level: Callable, result: InversionResult, max_level: flo
         A = _grid_axes(sol, max_step_deg, sigmas)
         cell = float(abs(np.linalg.det(A))) * np.degrees(1.0) ** 2
         mapped: dict[tuple[int, int], tuple[float, SpinState, int]] = {}
+        grids.append((sol.pole_I, A, {}))
         wave = {node: [(result.solutions[m].state, m) for m in members] for node, members in seeds.items()}
         while wave and complete:
             if len(rows) + len(wave) > max_poles:
@@ -254,11 +270,12 @@ def _map(fit: Callable, level: Callable, result: InversionResult, max_level: flo
             poles = [_exp_pole(sol, A @ np.array(node, dtype=float)) for node, _ in items]
             for (node, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
                 mapped[node] = found
+                grids[-1][2][node] = len(rows)
                 rows.append((pole, found[0], found[1], found[2], cell))
             if progress is not None:
                 progress(len(rows), max_poles)
             wave = _next_wave(mapped, [node for node, _ in items if level(mapped[node][0]) <= max_level])
-    return rows, complete
+    return rows, complete, tuple(grids)
 
 
 def pole_profile_region(curves: Sequence[InversionCurve], model, result: InversionResult, *, max_level: float = 0.99,
@@ -301,11 +318,11 @@ def pole_profile_region(curves: Sequence[InversionCurve], model, result: Inversi
     smallest_sigma_deg = min(float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(s.pole_covariance_rad2)[0], 0.0)))) for s in result.solutions)
     sigmas = 1.0
     while True:
-        rows, complete = _map(fit, level, result, max_level, max_step_deg, sigmas, max_poles, workers, progress)
+        rows, complete, grids = _map(fit, level, result, max_level, max_step_deg, sigmas, max_poles, workers, progress)
         if complete or sigmas * smallest_sigma_deg >= max_step_deg or sigmas >= MAX_STEP_SIGMAS:
             break
         sigmas *= 4.0
     chi2 = np.array([r[1] for r in rows])
     return PoleProfileRegion(np.array([r[0] for r in rows]).reshape(-1, 3), chi2, tuple(r[2] for r in rows),
                              chi2_dist.cdf(np.maximum(chi2 - chi2_min, 0.0) / result.chi2_scale, 2), np.array([r[3] for r in rows], dtype=int),
-                             np.array([r[4] for r in rows]), float(max_level), complete, float(chi2_min), float(result.chi2_scale), sigmas)
+                             np.array([r[4] for r in rows]), float(max_level), complete, float(chi2_min), float(result.chi2_scale), sigmas, grids)

@@ -141,6 +141,9 @@ def test_pole_profile_region_is_the_modes_ellipse_where_the_likelihood_is_quadra
     ellipse_deg2 = np.pi * chi2_dist.ppf(0.95, 2) * np.sqrt(np.linalg.det(best.pole_covariance_rad2)) * np.degrees(1.0) ** 2
     assert region.solid_angle_deg2(0.95) == pytest.approx(ellipse_deg2, rel=0.35)
     assert np.all(region.level[region.inside(0.68)] <= 0.68) and region.inside(0.95).sum() > region.inside(0.68).sum()
+    # a pole's level is its cell's: at each mapped node its own, far away 1 (outside the map)
+    assert all(region.level_at(p) == pytest.approx(lv) for p, lv in zip(region.poles_I[:10], region.level[:10]))
+    assert region.level_at(-best.pole_I) == 1.0 and region.level_at(np.cross(best.pole_I, [0.0, 0.0, 1.0])) == 1.0
     two = pole_profile_region(curves, ELLIPSOID, res, workers=2)
     assert np.array_equal(two.poles_I, region.poles_I) and np.array_equal(two.chi2, region.chi2)
     cut = pole_profile_region(curves, ELLIPSOID, res, max_poles=5)
