@@ -159,20 +159,19 @@ class PoleProfileRegion:
     chi2_min: float  #: the best mode's χ² (eq. 1's χ²_min)
     chi2_scale: float  #: the result's s
     step_sigmas: float = 1.0  #: the grids' step in σ of their lead mode (more than 1 when a finer map hit ``max_poles``)
-    grids: tuple = ()  #: per group of modes, (lead pole (3,), grid step matrix A (2, 2) rad, {node (i, j): row})
+    grids: tuple = ()  #: per group of modes, (lead pole (3,), grid step matrix A (2, 2) rad, {node (i, j): [row, ...]})
 
     def level_at(self, pole_I) -> float:
-        """The region's level at any pole: that of the grid node whose cell holds it (the node its tangent offset from a
-        group's lead pole rounds to, ``A⁻¹ x``), the lowest over the groups; 1 where no mapped cell holds it (beyond
-        ``max_level``, or never reached)."""
+        """The region's level at any pole: the lowest level mapped at the grid node whose cell holds it (the node its
+        tangent offset from a group's lead pole rounds to, ``A⁻¹ x``), over the groups; 1 where no mapped cell holds it
+        (beyond ``max_level``, or never reached)."""
         p = _unit_pole(pole_I)
         levels = [1.0]
         for lead, A, nodes in self.grids:
-            if lead @ p <= 0:  # the far hemisphere: no tangent offset of this grid reaches it
+            if lead @ p < -1.0 + 1e-12:  # the antipode: no single tangent offset
                 continue
-            row = nodes.get(tuple(int(v) for v in np.round(np.linalg.solve(A, tangent_offset(lead, p)))))
-            if row is not None:
-                levels.append(float(self.level[row]))
+            rows = nodes.get(tuple(int(v) for v in np.round(np.linalg.solve(A, tangent_offset(lead, p)))), [])
+            levels += [float(self.level[r]) for r in rows]
         return min(levels)
 
     @property
@@ -181,12 +180,14 @@ class PoleProfileRegion:
         return float(self.chi2.min()) if self.chi2.size else float("nan")
 
     def inside(self, level: float = 0.95) -> np.ndarray:
-        """Mask of the mapped poles in the region of ``level`` (F_χ²₂(Λ) ≤ level)."""
+        """Mask of the mapped (pole, body-axis branch) rows in the region of ``level`` (F_χ²₂(Λ) ≤ level)."""
         return self.level <= level
 
     def solid_angle_deg2(self, level: float = 0.95) -> float:
-        """The region's area, deg²: the cells of its poles (modes' grids that overlap count twice)."""
-        return float(self.cell_deg2[self.inside(level)].sum())
+        """The region's area, deg²: the cells of its grid nodes (a node mapped about several body axes counts once; grids
+        of two groups that overlap count twice)."""
+        return float(sum(self.cell_deg2[rows[0]] for _, _, nodes in self.grids for rows in nodes.values()
+                         if min(self.level[r] for r in rows) <= level))
 
 
 def _check_region_options(max_level, max_poles, max_step_deg) -> None:
@@ -235,23 +236,32 @@ def _neighbours(node: tuple[int, int]) -> list[tuple[int, int]]:
     return [(node[0] + di, node[1] + dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj]
 
 
+def _axis_class(axis_T: np.ndarray) -> int:
+    """The principal body axis (±x, ±y, ±z: 0–5) nearest to a spin axis: the branches of :func:`_map` that never merge."""
+    k = int(np.argmax(np.abs(axis_T)))
+    return 2 * k + int(axis_T[k] < 0)
+
+
 def _next_wave(mapped: dict, grow: list) -> dict:
-    """The unmapped neighbours of the nodes ``grow``, each with its starts: per branch around it, the state of that branch's
-    lowest-χ² mapped neighbour, lowest first (``mapped``: node -> (χ², state, branch))."""
+    """The unmapped neighbours (node, axis class) of the keys ``grow``, each with its starts: per branch of that axis class
+    around it, the state of the branch's lowest-χ² mapped neighbour, lowest first (``mapped``: (node, class) -> (χ², state,
+    branch))."""
     wave = {}
-    for node in sorted({nb for g in grow for nb in _neighbours(g)} - set(mapped)):
+    for node, cls in sorted({(nb, c) for g, c in grow for nb in _neighbours(g)} - set(mapped)):
         lowest: dict[int, tuple[float, SpinState]] = {}
         for nb in _neighbours(node):
-            if nb in mapped and (mapped[nb][2] not in lowest or mapped[nb][0] < lowest[mapped[nb][2]][0]):
-                lowest[mapped[nb][2]] = mapped[nb][:2]
-        wave[node] = [(st, b) for b, (_, st) in sorted(lowest.items(), key=lambda kv: (kv[1][0], kv[0]))]
+            found = mapped.get((nb, cls))
+            if found is not None and (found[2] not in lowest or found[0] < lowest[found[2]][0]):
+                lowest[found[2]] = found[:2]
+        wave[(node, cls)] = [(st, b) for b, (_, st) in sorted(lowest.items(), key=lambda kv: (kv[1][0], kv[0]))]
     return wave
 
 
-def _map(fit: Callable, level: Callable, result: InversionResult, max_level: float, max_step_deg: float, sigmas: float,
-         max_poles: int, workers: int, progress) -> tuple[list, bool, tuple]:
+def _map(fit: Callable, level: Callable, other_axes: Callable, result: InversionResult, max_level: float, max_step_deg: float,
+         sigmas: float, max_poles: int, workers: int, progress) -> tuple[list, bool, tuple]:
     """One fill of :func:`pole_profile_region` on grids of ``sigmas`` σ a step: (rows (pole, χ², state, branch, cell deg²),
-    complete, grids (:attr:`PoleProfileRegion.grids`))."""
+    complete, grids (:attr:`PoleProfileRegion.grids`)). ``other_axes(m)``: the states about the principal axes ⊥ mode m's
+    (known shape; none otherwise), the extra branches seeded at a group's lead."""
     rows, grids = [], []
     complete = True
     included = [m for m, s in enumerate(result.solutions) if level(s.chi2) <= max_level]
@@ -259,37 +269,46 @@ def _map(fit: Callable, level: Callable, result: InversionResult, max_level: flo
         sol = result.solutions[lead]
         A = _grid_axes(sol, max_step_deg, sigmas)
         cell = float(abs(np.linalg.det(A))) * np.degrees(1.0) ** 2
-        mapped: dict[tuple[int, int], tuple[float, SpinState, int]] = {}
+        mapped: dict = {}  # (node, axis class) -> (χ², state, branch)
         grids.append((sol.pole_I, A, {}))
-        wave = {node: [(result.solutions[m].state, m) for m in members] for node, members in seeds.items()}
+        wave: dict = {}
+        for node, members in seeds.items():
+            for m in members:
+                wave.setdefault((node, _axis_class(result.solutions[m].state.axis_T)), []).append((result.solutions[m].state, m))
+        for st in other_axes(lead):
+            wave.setdefault(((0, 0), _axis_class(st.axis_T)), [(st, lead)])
         while wave and complete:
             if len(rows) + len(wave) > max_poles:
                 complete = False
                 wave = dict(sorted(wave.items())[: max_poles - len(rows)])
             items = sorted(wave.items())
-            poles = [_exp_pole(sol, A @ np.array(node, dtype=float)) for node, _ in items]
-            for (node, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
-                mapped[node] = found
-                grids[-1][2][node] = len(rows)
+            poles = [_exp_pole(sol, A @ np.array(key[0], dtype=float)) for key, _ in items]
+            for (key, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
+                mapped[key] = found
+                grids[-1][2].setdefault(key[0], []).append(len(rows))
                 rows.append((pole, found[0], found[1], found[2], cell))
             if progress is not None:
                 progress(len(rows), max_poles)
-            wave = _next_wave(mapped, [node for node, _ in items if level(mapped[node][0]) <= max_level])
+            wave = _next_wave(mapped, [key for key, _ in items if level(mapped[key][0]) <= max_level])
     return rows, complete, tuple(grids)
 
 
 def pole_profile_region(curves: Sequence[InversionCurve], model, result: InversionResult, *, max_level: float = 0.99,
-                        max_poles: int = MAX_REGION_POLES, max_step_deg: float = 5.0, max_nfev: int = 60, workers: int | None = None,
-                        progress: Callable[[int, int], None] | None = None) -> PoleProfileRegion:
+                        max_poles: int = MAX_REGION_POLES, max_step_deg: float = 5.0, max_nfev: int = 60, n_scan_samples: int = 60,
+                        workers: int | None = None, progress: Callable[[int, int], None] | None = None) -> PoleProfileRegion:
     """Map the pole's profile-likelihood region (module docstring) out to the level ``max_level``.
 
     The modes of ``result`` whose own Λ is within ``max_level`` are grouped (:func:`_groups`: aliases and other body axes
     at one pole share a grid); each group gets a grid in the tangent plane of its lead mode along the lead's principal
     pole directions, one σ a step (at most ``max_step_deg``): a Gaussian mode's 95 % region is then ~19 cells, and a ridge
-    is followed for as long as it stays in. From the modes' own nodes, wave by wave, every node next to (8 neighbours) a
-    mapped node whose level is ≤ ``max_level`` is fitted with the pole held (:func:`_held_fit`, ``max_nfev`` evaluations)
-    from the lowest-χ² mapped neighbour of each branch (the mode it descends from) around it, and keeps the lowest: where
-    two modes' branches meet, the profile is the lower of them. A wave's fits run on ``workers`` threads and are taken in
+    is followed for as long as it stays in. For a known shape, the lead is also turned onto each principal axis ⟂ its own at
+    its best phase (on ``n_scan_samples`` per curve, as :func:`pole_profile_chi2` starts): the spin about another body axis
+    is a branch of its own, which may hold the pole where the modes' axis does not (a one-night box-wing: its mode about x,
+    the truth about y at Λ's level 0.73 against 0.99 about x). From the seeds, wave by wave, every node next to (8
+    neighbours) a mapped node whose level is ≤ ``max_level`` is fitted, about the same body axis, with the pole held
+    (:func:`_held_fit`, ``max_nfev`` evaluations) from the lowest-χ² mapped neighbour of each branch (the mode it descends
+    from) around it, and keeps the lowest: where two modes' branches meet, the profile is the lower of them; a node's
+    level is the lowest over its body axes. A wave's fits run on ``workers`` threads and are taken in
     grid order, so the map does not depend on their number. A grid ends when no node is left to map. When ``max_poles``
     poles are mapped before every grid ends (a plateau of one night: hundreds of deg² around a sharp mode), the map starts
     again on grids four times as coarse (4, 16, 64 … σ a step, each covering 16 times the area), until it closes, every step
@@ -315,10 +334,23 @@ def pole_profile_region(curves: Sequence[InversionCurve], model, result: Inversi
                 best = (chi2, st, branch)
         return best
 
+    scan = _subsample(data, n_scan_samples)  # the phase scans only pick a start
+    seeded: dict[int, list] = {}
+
+    def other_axes(m: int) -> list:
+        """Mode m's pole held and its body turned onto each principal axis ⟂ its own at its best phase, fitted (memoised)."""
+        if m not in seeded:
+            st = result.solutions[m].state
+            C_IP = _pole_phase_frame(st, data.epoch)
+            seeded[m] = [_held_fit(data, model, True, (_best_phase(scan, model, C_IP, st.rate_rad_s, axis_frame(a)), st.rate_rad_s,
+                                                       axis_frame(a)), max_nfev)[1]
+                         for a in _PRINCIPAL_AXES if abs(a @ st.axis_T) < 0.5] if known else []
+        return seeded[m]
+
     smallest_sigma_deg = min(float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(s.pole_covariance_rad2)[0], 0.0)))) for s in result.solutions)
     sigmas = 1.0
     while True:
-        rows, complete, grids = _map(fit, level, result, max_level, max_step_deg, sigmas, max_poles, workers, progress)
+        rows, complete, grids = _map(fit, level, other_axes, result, max_level, max_step_deg, sigmas, max_poles, workers, progress)
         if complete or sigmas * smallest_sigma_deg >= max_step_deg or sigmas >= MAX_STEP_SIGMAS:
             break
         sigmas *= 4.0
