@@ -221,7 +221,8 @@ def profile_regions(run: InversionRun, progress: Callable[[int, int], None] | No
 
 def region_dict(region, period_range: PeriodRange) -> dict:
     """One profile-likelihood region in the JSON form of ``--json``: its areas, and every mapped pole within the mapped
-    level (ecliptic and equatorial J2000, deg; the level F_χ²₂(Λ) at which it enters the region; the sidereal period there)."""
+    level (ecliptic and equatorial J2000, deg; the level F_χ²₂(Λ) at which it enters the region; the sidereal period and
+    body spin axis there: a known shape's pole can be listed once per body axis it was mapped about)."""
     from lightcurves.inversion.frames import pole_to_ecliptic, pole_to_radec
 
     keep = region.inside(region.max_level)
@@ -230,7 +231,8 @@ def region_dict(region, period_range: PeriodRange) -> dict:
         lon, lat = np.degrees(pole_to_ecliptic(pole))
         ra, dec = np.degrees(pole_to_radec(pole))
         poles.append({"pole_ecliptic_lon_deg": float(lon), "pole_ecliptic_lat_deg": float(lat), "pole_ra_deg": float(ra),
-                      "pole_dec_deg": float(dec), "level": float(level), "sidereal_period_h": state.period_s / SECONDS_PER_HOUR})
+                      "pole_dec_deg": float(dec), "level": float(level), "sidereal_period_h": state.period_s / SECONDS_PER_HOUR,
+                      "body_spin_axis_T": [float(x) for x in state.axis_T]})
     return {"period_range": period_range.to_dict(), "mapped_to_level": region.max_level, "complete": bool(region.complete),
             "n_poles_mapped": int(region.chi2.size), "solid_angle_68_deg2": region.solid_angle_deg2(0.68),
             "solid_angle_95_deg2": region.solid_angle_deg2(0.95), "chi2_min_mapped": region.min_chi2, "poles": poles}

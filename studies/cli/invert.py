@@ -114,7 +114,7 @@ def _text_line(rank: int, s: dict) -> str:
 
 
 def _region_line(r: dict) -> str:
-    inside = {lv: sum(p["level"] <= lv for p in r["poles"]) for lv in (0.68, 0.95)}
+    inside = {lv: len({(round(p["pole_ra_deg"], 9), round(p["pole_dec_deg"], 9)) for p in r["poles"] if p["level"] <= lv}) for lv in (0.68, 0.95)}
     return (f"pole profile-likelihood region ({r['period_range']['min_h']:.6g} to {r['period_range']['max_h']:.6g} h): "
             f"95 % {r['solid_angle_95_deg2']:.3g} deg² ({inside[0.95]} poles), 68 % {r['solid_angle_68_deg2']:.3g} deg² ({inside[0.68]} poles); "
             f"{r['n_poles_mapped']} poles mapped to {100 * r['mapped_to_level']:g} %" + ("" if r["complete"] else " (stopped at the pole limit: incomplete)"))
