@@ -44,8 +44,9 @@ Scored per object: pole error of the best mode and of the closest listed mode, p
 (best pole within 90° of the truth), whether the truth lies in the best mode's 68 / 95 % regions (pole:
 2-D; pole and period: 3-D) and in the highest-density region of the whole mixture of listed modes
 (:func:`mixture_level`), the profile-likelihood level of the true pole
-(:meth:`~lightcurves.inversion.posterior.InversionResult.profile_level`), the number of modes, whether a second pole ≥ ``ALT_POLE_DEG`` from the
-best is listed, χ²/dof, and the profiled χ² at the true spin state (:func:`true_state`) minus the best
+(:meth:`~lightcurves.inversion.posterior.InversionResult.profile_level`) and the level of the mapped region at the true pole
+(:meth:`~lightcurves.inversion.profile.PoleProfileRegion.level_at`: what ``--pole-region`` reports), the number of modes,
+whether a second pole ≥ ``ALT_POLE_DEG`` from the best is listed, χ²/dof, and the profiled χ² at the true spin state (:func:`true_state`) minus the best
 mode's: a negative value beyond the noise means the search missed the global optimum.
 
 Brute force (:func:`brute_force`): on a few objects a dense grid of the same likelihood
@@ -81,7 +82,7 @@ from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, bisector_rate, find_
 from lightcurves.inversion.io import from_lightcurve
 from lightcurves.inversion.convex import fibonacci_sphere
 from lightcurves.inversion.known_shape import KnownShapeModel
-from lightcurves.inversion.profile import pole_profile_chi2
+from lightcurves.inversion.profile import pole_profile_chi2, pole_profile_region
 from lightcurves.inversion.search import invert, period_grid, profiled_chi2
 from lightcurves.inversion.spin import C_LIGHT_M_S, SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import UnresolvedRenderer, observed_flux
@@ -346,6 +347,9 @@ def score(result, truth: SpinState, curves, model, rng: np.random.Generator) -> 
     row["mix_level_pole"] = mixture_level(sols, truth.pole_I, None, rng)
     row["mix_level_3d"] = mixture_level(sols, truth.pole_I, truth.period_s, rng)
     row["profile_level_pole"] = result.profile_level(pole_profile_chi2(curves, model, result, truth.pole_I)[0])
+    region = pole_profile_region(curves, model, result)
+    row["region_level_pole"] = region.level_at(truth.pole_I)
+    row["region_area95_deg2"] = region.solid_angle_deg2(0.95)
     return row
 
 
@@ -536,12 +540,14 @@ def _coverage_cell(hits: np.ndarray, level: float) -> str:
 
 
 def coverage_table(rows: list[dict]) -> str:
-    """Coverage of the 68 / 95 % regions: best mode (pole 2-D, pole + period 3-D), the mixture of all listed modes and the
-    pole's profile likelihood (:func:`~lightcurves.inversion.profile.pole_profile_chi2`)."""
+    """Coverage of the 68 / 95 % regions: best mode (pole 2-D, pole + period 3-D), the mixture of all listed modes, the
+    pole's profile likelihood at the truth (:func:`~lightcurves.inversion.profile.pole_profile_chi2`) and the region the CLI
+    maps (:func:`~lightcurves.inversion.profile.pole_profile_region`, its level at the truth's cell)."""
     lines = ["| region | 68 % | 95 % |", "|---|---|---|"]
     kinds = (("best mode, pole (2-D)", "in{}_pole", None), ("best mode, pole + period (3-D)", "in{}_3d", None),
              ("mixture of modes, pole (2-D)", None, "mix_level_pole"), ("mixture of modes, pole + period (3-D)", None, "mix_level_3d"),
-             ("profile likelihood, pole (2-D)", None, "profile_level_pole"))
+             ("profile likelihood, pole (2-D)", None, "profile_level_pole"),
+             ("profile likelihood, mapped region (`--pole-region`)", None, "region_level_pole"))
     for label, key, mix in kinds:
         cells = []
         for level in LEVELS:
