@@ -162,15 +162,26 @@ class PoleProfileRegion:
     grids: tuple = ()  #: per group of modes, (lead pole (3,), grid step matrix A (2, 2) rad, {node (i, j): [row, ...]})
 
     def level_at(self, pole_I) -> float:
-        """The region's level at any pole: the lowest level mapped at the grid node whose cell holds it (the node its
-        tangent offset from a group's lead pole rounds to, ``A⁻¹ x``), over the groups; 1 where no mapped cell holds it
-        (beyond ``max_level``, or never reached)."""
+        """The region's level at any pole, from the grid that holds it (its tangent offset from a group's lead pole in grid
+        units, ``u = A⁻¹ x``): Λ interpolated bilinearly between the four nodes around ``u`` when all four are mapped (each
+        node's Λ the lowest over its body axes; its error at most (|∂²Λ/∂u₁²| + |∂²Λ/∂u₂²|)/8, 0.5 on a Gaussian mode's one-σ
+        grid), else the level of the node ``u`` rounds to; the lowest over the groups; 1 where no
+        mapped cell holds it (beyond ``max_level``, or never reached)."""
         p = _unit_pole(pole_I)
+        lam = np.maximum(self.chi2 - self.chi2_min, 0.0) / self.chi2_scale
         levels = [1.0]
         for lead, A, nodes in self.grids:
             if lead @ p < -1.0 + 1e-12:  # the antipode: no single tangent offset
                 continue
-            rows = nodes.get(tuple(int(v) for v in np.round(np.linalg.solve(A, tangent_offset(lead, p)))), [])
+            u = np.linalg.solve(A, tangent_offset(lead, p))
+            i0, j0 = (int(v) for v in np.floor(u))
+            corners = [nodes.get((i0 + di, j0 + dj)) for di in (0, 1) for dj in (0, 1)]
+            if all(corners):
+                fi, fj = u[0] - i0, u[1] - j0
+                weights = ((1 - fi) * (1 - fj), (1 - fi) * fj, fi * (1 - fj), fi * fj)
+                levels.append(float(chi2_dist.cdf(sum(w * min(lam[r] for r in rows) for w, rows in zip(weights, corners)), 2)))
+                continue
+            rows = nodes.get(tuple(int(v) for v in np.round(u)), [])
             levels += [float(self.level[r]) for r in rows]
         return min(levels)
 
