@@ -82,6 +82,7 @@ from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, bisector_rate, find_
 from lightcurves.inversion.io import from_lightcurve
 from lightcurves.inversion.convex import fibonacci_sphere
 from lightcurves.inversion.known_shape import KnownShapeModel
+from lightcurves.inversion.posterior import tangent_exp
 from lightcurves.inversion.profile import pole_profile_chi2, pole_profile_region
 from lightcurves.inversion.search import invert, period_grid, profiled_chi2
 from lightcurves.inversion.spin import C_LIGHT_M_S, SpinState, axis_frame, emission_time_s, pole_frame, unspin
@@ -274,14 +275,6 @@ def _angle_deg(a, b) -> float:
     return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
 
 
-def _exp_map(pole_I: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Unit vectors (M, 3) at the tangent offsets ``t`` (M, 2) rad from ``pole_I`` (the inverse of ``tangent_offset``)."""
-    C = pole_frame(pole_I)
-    theta = np.linalg.norm(t, axis=1)
-    d = (t[:, :1] * C[:, 0] + t[:, 1:] * C[:, 1]) / np.where(theta > 0, theta, 1.0)[:, None]
-    return np.cos(theta)[:, None] * pole_I + np.sin(theta)[:, None] * d
-
-
 def _log_map(pole_I: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Tangent offsets (M, 2) rad of unit vectors ``x`` (M, 3) from ``pole_I`` (vectorised ``tangent_offset``)."""
     v = x @ pole_frame(pole_I)
@@ -318,7 +311,7 @@ def mixture_level(solutions, pole_I, period_s: float | None, rng: np.random.Gene
             continue
         cov = s.covariance if period_s is not None else s.covariance[:2, :2]
         z = rng.multivariate_normal(np.zeros(cov.shape[0]), cov, size=n, method="eigh")
-        xs.append(_exp_map(s.pole_I, z[:, :2]))
+        xs.append(tangent_exp(s.pole_I, z[:, :2]))
         ps.append(s.period_s + z[:, 2] if period_s is not None else None)
     x = np.concatenate(xs)
     p = np.concatenate(ps) if period_s is not None else None

@@ -105,6 +105,15 @@ def tangent_offset(pole_I, other_I) -> np.ndarray:
     return np.zeros(2) if rho == 0 else angle * v[:2] / rho
 
 
+def tangent_exp(pole_I, offset) -> np.ndarray:
+    """Unit directions (..., 3) at the tangent-plane offsets ``offset`` (..., 2) rad from ``pole_I`` in the basis (e₁, e₂) of
+    the pole frame (the exponential map of the sphere, the inverse of :func:`tangent_offset`)."""
+    C = pole_frame(np.asarray(pole_I, dtype=float))
+    t = np.asarray(offset, dtype=float)
+    r = np.linalg.norm(t, axis=-1)[..., None]
+    return np.cos(r) * C[:, 2] + np.sin(r) * (t @ C[:, :2].T) / np.where(r > 0, r, 1.0)
+
+
 @dataclass(frozen=True)
 class SpinSolution:
     """One mode of the spin-state posterior.

@@ -42,9 +42,9 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import chi2 as chi2_dist
 
 from lightcurves.inversion.data import InversionCurve
-from lightcurves.inversion.posterior import InversionResult, tangent_offset
+from lightcurves.inversion.posterior import InversionResult, tangent_exp, tangent_offset
 from lightcurves.inversion.search import _PRINCIPAL_AXES, _best_phase, _each, _pole_phase_frame, _Problem, _stack, _subsample, _workers
-from lightcurves.inversion.spin import SpinState, axis_frame, pole_frame
+from lightcurves.inversion.spin import SpinState, axis_frame
 
 __all__ = ["pole_profile_chi2", "pole_profile_region", "PoleProfileRegion"]
 
@@ -226,13 +226,6 @@ def _grid_axes(solution, max_step_deg: float, sigmas: float = 1.0) -> np.ndarray
     return evecs * np.minimum(sigmas * np.sqrt(np.maximum(evals, 0.0)), np.radians(max_step_deg))
 
 
-def _exp_pole(solution, offset: np.ndarray) -> np.ndarray:
-    """The pole at tangent ``offset`` (rad) from the mode's (the exponential map of the sphere, :mod:`.posterior`)."""
-    C = pole_frame(solution.pole_I)
-    r = float(np.linalg.norm(offset))
-    return solution.pole_I if r == 0 else np.cos(r) * C[:, 2] + np.sin(r) / r * (C[:, :2] @ offset)
-
-
 def _groups(result: InversionResult, included: list[int], max_level: float, max_step_deg: float, sigmas: float) -> list[tuple[int, dict]]:
     """The modes ``included`` grouped onto shared grids: (lead mode, {node: [mode, ...]}). A mode joins the first group whose
     lead's pole Gaussian holds its pole within ``max_level`` (an alias or an axis of the same pole: their profiles meet), at
@@ -302,7 +295,7 @@ def _map(fit: Callable, level: Callable, other_axes: Callable, result: Inversion
                 complete = False
                 wave = dict(sorted(wave.items())[: max_poles - len(rows)])
             items = sorted(wave.items())
-            poles = [_exp_pole(sol, A @ np.array(key[0], dtype=float)) for key, _ in items]
+            poles = [tangent_exp(sol.pole_I, A @ np.array(key[0], dtype=float)) for key, _ in items]
             for (key, _), pole, found in zip(items, poles, _each(lambda k: fit(poles[k], items[k][1]), range(len(items)), workers)):
                 mapped[key] = found
                 grids[-1][2].setdefault(key[0], []).append(len(rows))

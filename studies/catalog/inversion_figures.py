@@ -43,16 +43,12 @@ def ellipse_I(solution, level: float, n: int = 120) -> np.ndarray:
     A tangent offset x = √(χ²₂(level)) L (cos t, sin t), L Lᵀ = Σ_pole, in the basis (e₁, e₂) of the
     pole frame, is the direction p cos|x| + (x₁e₁ + x₂e₂) sin|x|/|x| (posterior module of the search).
     """
-    from lightcurves.inversion.spin import pole_frame
+    from lightcurves.inversion.posterior import tangent_exp
 
-    C = pole_frame(solution.pole_I)
     L = np.linalg.cholesky(solution.pole_covariance_rad2 + 1e-18 * np.eye(2))
     t = np.linspace(0.0, 2.0 * np.pi, n)
     x = np.sqrt(chi2_dist.ppf(level, 2)) * (L @ np.stack([np.cos(t), np.sin(t)]))  # (2, n)
-    r = np.linalg.norm(x, axis=0)
-    tangent = (C[:, :2] @ x).T
-    safe = np.where(r > 0, r, 1.0)
-    return np.cos(r)[:, None] * C[:, 2] + (np.sin(r) / safe)[:, None] * tangent
+    return tangent_exp(solution.pole_I, x.T)
 
 
 def _broken(lon: np.ndarray, lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
