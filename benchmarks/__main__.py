@@ -43,6 +43,9 @@ def _sections(text: str) -> dict[str, str]:
 
 def main(names: list[str]) -> None:
     sys.path.insert(0, str(HERE.parent))
+    from benchmarks.provenance import commit
+
+    code = commit()  # before the run: the checkout may change while a long benchmark runs
     available = sorted(p.stem[len("bench_"):] for p in HERE.glob("bench_*.py"))
     unknown = [n for n in names if n not in available]
     if unknown:
@@ -53,7 +56,7 @@ def main(names: list[str]) -> None:
         print(f"[bench] {name} ...", flush=True)
         mod = importlib.import_module(f"benchmarks.bench_{name}")
         body = mod.run().rstrip() + "\n"
-        new[name] = f"_Measured {datetime.date.today().isoformat()} on {_machine()}._\n\n" + body
+        new[name] = f"_Measured {datetime.date.today().isoformat()} on {_machine()}, commit {code}._\n\n" + body
         print(body)
     # read the other sections only now: a benchmark run meanwhile in another process keeps what it wrote
     old = _sections(RESULTS.read_text()) if RESULTS.exists() else {}

@@ -60,6 +60,8 @@ Sizes (:data:`SIZES`, chosen by ``$LCNAV_BENCH_INVERSION_SIZE``): "full" is the 
 "smoke" a few objects. ``$LCNAV_BENCH_INVERSION_BUDGET_S`` stops starting objects after that many
 seconds (the kinds are interleaved, so every kind is measured); the section says how many were left out.
 
+Objects run in one worker process per core, one thread each (:func:`measure`).
+
 Timing (:func:`timing_table`): ``Size.n_timing`` extra facet objects of exactly 3 nights × :data:`TIMING_SAMPLES` samples
 (the issue's ≤ 10 s case), from their own random stream, timed wall-clock and CPU (all threads of the process) with the
 1-min load average at their start. Times are measured on a shared machine; nothing here is asserted.
@@ -67,12 +69,16 @@ Timing (:func:`timing_table`): ``Size.n_timing`` extra facet objects of exactly 
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
+import functools
+import multiprocessing
 import os
 import time
 from dataclasses import dataclass
 
 import astropy.units as u
+import numba
 import numpy as np
 from astropy.time import Time
 from scipy import stats
@@ -320,8 +326,8 @@ def mixture_level(solutions, pole_I, period_s: float | None, rng: np.random.Gene
     return float(np.mean(f_draws > f_truth))
 
 
-def score(result, truth: SpinState, curves, model, rng: np.random.Generator) -> dict:
-    """The per-object figures of the module docstring."""
+def score(result, truth: SpinState, curves, model, rng: np.random.Generator, workers: int | None = None) -> dict:
+    """The per-object figures of the module docstring (the profile's fits on ``workers`` threads)."""
     best = result.best
     sols = result.solutions
     errs = [_angle_deg(s.pole_I, truth.pole_I) for s in sols]
@@ -339,8 +345,8 @@ def score(result, truth: SpinState, curves, model, rng: np.random.Generator) -> 
         row[f"in{pct}_3d"] = best.contains(truth.pole_I, truth.period_s, level)
     row["mix_level_pole"] = mixture_level(sols, truth.pole_I, None, rng)
     row["mix_level_3d"] = mixture_level(sols, truth.pole_I, truth.period_s, rng)
-    row["profile_level_pole"] = result.profile_level(pole_profile_chi2(curves, model, result, truth.pole_I)[0])
-    region = pole_profile_region(curves, model, result)
+    row["profile_level_pole"] = result.profile_level(pole_profile_chi2(curves, model, result, truth.pole_I, workers=workers)[0])
+    region = pole_profile_region(curves, model, result, workers=workers)
     row["region_level_pole"] = region.level_at(truth.pole_I)
     row["region_area95_deg2"] = region.solid_angle_deg2(0.95)
     return row
@@ -351,20 +357,21 @@ def _period_range(synodic_s: float, rng: np.random.Generator) -> tuple[float, fl
     return centre * (1.0 - PERIOD_HALF_WIDTH), centre * (1.0 + PERIOD_HALF_WIDTH)
 
 
-def run_object(case: Case, model: KnownShapeModel, renderer, rng: np.random.Generator) -> dict:
-    """Simulate, invert (known shape) and score one object; the row also has the geometry and the inversion's time."""
+def run_object(case: Case, model: KnownShapeModel, renderer, rng: np.random.Generator, workers: int | None = None) -> dict:
+    """Simulate, invert (known shape, fits on ``workers`` threads) and score one object; the row also has the geometry and the
+    inversion's time."""
     curves, truth, synodic = simulate_case(case, renderer, rng)
     period_range = _period_range(synodic, rng)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     t0, c0 = time.perf_counter(), time.process_time()
-    result = invert(curves, model, period_range, rng=rng)
+    result = invert(curves, model, period_range, rng=rng, workers=workers)
     elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
     alpha = np.concatenate([c.phase_angle_rad for c in curves])
     row = {"target": case.target, "axis_kind": axis_kind(get_target(case.target).J_diag, case.axis_T), "nights": len(curves),
            "samples": int(sum(len(c) for c in curves)),
            "span_deg": float(np.degrees(np.ptp(alpha))), "time_s": elapsed, "cpu_s": cpu, "load": load,
            "truth_in_range": period_range[0] <= truth.period_s <= period_range[1]}
-    row.update(score(result, truth, curves, model, rng))
+    row.update(score(result, truth, curves, model, rng, workers))
     J = get_target(case.target).J_diag
     moment = [float(a**2 @ J) for a in (result.best.state.axis_T, truth.axis_T)]  # aᵀ diag(J) a, kg m²
     row["axis_moment_right"] = abs(moment[0] / moment[1] - 1.0) < 0.01  # same principal moment: equivalent for a symmetric body
@@ -432,12 +439,12 @@ def brute_force(curves, model: KnownShapeModel, period_range_s, *, pole_step_deg
     return state, profiled_chi2(curves, model, state)[0], poles.shape[0] * axes.shape[0] * omegas.size * phi0.size
 
 
-def run_brute(case: Case, model: KnownShapeModel, rng: np.random.Generator) -> dict:
+def run_brute(case: Case, model: KnownShapeModel, rng: np.random.Generator, workers: int | None = None) -> dict:
     """Invert one (small) object and search the same likelihood by :func:`brute_force`; compare optima and times."""
     curves, truth, synodic = simulate_case(case, FacetRenderer(model), rng)
     period_range = _period_range(synodic, rng)
     t0 = time.perf_counter()
-    result = invert(curves, model, period_range, rng=rng)
+    result = invert(curves, model, period_range, rng=rng, workers=workers)
     t_invert = time.perf_counter() - t0
     t0 = time.perf_counter()
     state, chi2_grid, n_states = brute_force(curves, model, period_range)
@@ -449,10 +456,6 @@ def run_brute(case: Case, model: KnownShapeModel, rng: np.random.Generator) -> d
 
 
 # ---------------------------------------------------------------- the run
-
-
-def _models(names) -> dict:
-    return {n: KnownShapeModel.from_target(get_target(n)) for n in names}
 
 
 def _drawn_objects(rng: np.random.Generator, n: int, names, nights: int | None, samples: int) -> list[Case]:
@@ -476,25 +479,72 @@ def schedule(rng: np.random.Generator, size: Size) -> list[tuple[str, Case]]:
     return [(kind, case) for _, _, kind, case in sorted(keyed, key=lambda k: k[:2])]
 
 
-def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, log=print) -> tuple[dict, int]:
+def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, processes: int | None = None, log=print) -> tuple[dict, int]:
     """Rows ``facet``, ``mitsuba``, ``timing`` (:func:`run_object`) and ``brute`` (:func:`run_brute`), and the number of scheduled
-    objects not run because the wall-clock ``budget_s`` ran out."""
-    models = _models(TARGETS)
-    timing_rng = np.random.default_rng(TIMING_SEED + 1)
-    rows = {"facet": [], "mitsuba": [], "brute": [], "timing": []}
+    objects not run because the wall-clock ``budget_s`` ran out.
+
+    The objects but the timing ones run in ``processes`` worker processes (default: the machine's cores), one object each at a
+    time on one thread: an object's fits are largely Python, which threads do not share (``invert(..., workers=)``), so two
+    processes measure twice the objects in the same time. Each object draws its noise from its own seed
+    (``SeedSequence(REPORT_SEED)`` spawned in schedule order), so a row does not depend on the number of processes or on
+    which objects ran before it. The timing objects run first, alone, on all cores (what a user's single inversion gets);
+    the budget counts from after them and does not stop them.
+    """
     jobs = schedule(rng, size)
+    seeds = np.random.SeedSequence(REPORT_SEED).spawn(len(jobs))
+    rows = {"facet": [], "mitsuba": [], "brute": [], "timing": []}
+    done = 0
+
+    def keep(j: int, kind: str, row: dict) -> None:
+        nonlocal done
+        rows[kind].append((j, row))
+        done += 1
+        log(f"[inversion] {done}/{len(jobs)} {kind} {_brief(row)} ({time.perf_counter() - t0:.0f} s)")
+
     t0 = time.perf_counter()
     for j, (kind, case) in enumerate(jobs):
-        if time.perf_counter() - t0 > budget_s:
-            return rows, len(jobs) - j
-        model = models[case.target]
-        if kind == "brute":
-            rows[kind].append(_safe(run_brute, case, model, rng))
-        else:
-            renderer = UnresolvedRenderer(get_target(case.target)) if kind == "mitsuba" else FacetRenderer(model)
-            rows[kind].append(_safe(run_object, case, model, renderer, timing_rng if kind == "timing" else rng))
-        log(f"[inversion] {j + 1}/{len(jobs)} {kind} {_brief(rows[kind][-1])} ({time.perf_counter() - t0:.0f} s)")
-    return rows, 0
+        if kind == "timing":
+            keep(j, kind, _job(kind, case, seeds[j], None))
+    queue = [(j, kind, case) for j, (kind, case) in enumerate(jobs) if kind != "timing"]
+    t_pool = time.perf_counter()
+    processes = processes or os.cpu_count() or 1
+    not_run = 0
+    context = multiprocessing.get_context("spawn")  # numba's and Mitsuba's thread pools do not survive a fork
+    with concurrent.futures.ProcessPoolExecutor(processes, mp_context=context, initializer=_single_threaded) as pool:
+        running = {}
+        while queue or running:
+            while queue and len(running) < processes:
+                if time.perf_counter() - t_pool > budget_s:
+                    not_run, queue = len(queue), []
+                    break
+                j, kind, case = queue.pop(0)
+                running[pool.submit(_job, kind, case, seeds[j], 1)] = (j, kind)
+            if not running:
+                break
+            finished, _ = concurrent.futures.wait(running, return_when=concurrent.futures.FIRST_COMPLETED)
+            for future in finished:
+                keep(*running.pop(future), future.result())
+    return {kind: [row for _, row in sorted(kept, key=lambda jr: jr[0])] for kind, kept in rows.items()}, not_run
+
+
+def _single_threaded() -> None:
+    """A worker process's initializer: numba's parallel kernels on one thread (the processes share the cores)."""
+    numba.set_num_threads(1)
+
+
+@functools.cache
+def _model(name: str) -> KnownShapeModel:
+    return KnownShapeModel.from_target(get_target(name))
+
+
+def _job(kind: str, case: Case, seed: np.random.SeedSequence, workers: int | None) -> dict:
+    """One scheduled object (:func:`measure`): its row, or a row recording its failure."""
+    rng = np.random.default_rng(seed)
+    model = _model(case.target)
+    if kind == "brute":
+        return _safe(run_brute, case, model, rng, workers)
+    renderer = UnresolvedRenderer(get_target(case.target)) if kind == "mitsuba" else FacetRenderer(model)
+    return _safe(run_object, case, model, renderer, rng, workers)
 
 
 def _safe(fn, case: Case, *args) -> dict:
@@ -694,9 +744,11 @@ def run() -> str:
     size = SIZES[name]
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     t0 = time.perf_counter()
-    rows, not_run = measure(np.random.default_rng(REPORT_SEED), size, budget_s=budget)
+    processes = os.cpu_count() or 1
+    rows, not_run = measure(np.random.default_rng(REPORT_SEED), size, budget_s=budget, processes=processes)
     stopped = (f" **The wall-clock budget of {budget:.0f} s stopped the run: {not_run} scheduled objects were not measured.**" if not_run else "")
-    header = (f"Size \"{name}\" {size}; seed {REPORT_SEED}; 1-min load average {load:.1f} at start (2 cores shared), total "
+    header = (f"Size \"{name}\" {size}; seed {REPORT_SEED}; 1-min load average {load:.1f} at start; objects in {processes} processes of one thread "
+              f"each, the timing objects before them alone on all cores; total "
               f"{time.perf_counter() - t0:.0f} s.{stopped} Period range given: ±{100 * PERIOD_HALF_WIDTH:g} % around the true synodic period, "
               f"centre jittered by ±{100 * PERIOD_JITTER:g} %. Coverage cells: hits/n, Wilson 95 % interval, pass when the nominal level lies inside it.")
     return report(rows, size, header)

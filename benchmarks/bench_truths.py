@@ -27,12 +27,12 @@ from __future__ import annotations
 import datetime
 import json
 import os
-import subprocess
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from benchmarks.bench_consistency import INTERVAL_HEADER, _interval_row
+from benchmarks.provenance import commit
 from estimators.tuning import default_tuning, get_tuning
 from studies.sim.metrics import SETTLING_S
 from studies.sim.navigation import consistency_check
@@ -87,23 +87,11 @@ def _missing(case: tuple, kept: dict) -> bool:
     return r is None or "error" in r or int(r["runs"]) + int(r.get("diverged", 0)) < case[4]  # runs: those that did not diverge
 
 
-def _commit() -> str:
-    """The code's commit (``+changes`` when tracked files differ from it), or ``unknown`` outside a git checkout."""
-    root = Path(__file__).resolve().parent.parent
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", f":!benchmarks/{ROWS_FILE.name}", ":!benchmarks/RESULTS.md"],
-                               cwd=root, capture_output=True, text=True, check=True).stdout  # the results themselves do not make the code differ
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-    return head + ("+changes" if dirty.strip() else "")
-
-
 def _measure(cases: list[tuple], kept: dict) -> None:
     """Measure ``cases`` on every core, adding each row to ``kept`` and to :data:`ROWS_FILE` as it finishes."""
     if not cases:  # every row kept: no worker processes to start
         return
-    stamp = {"commit": _commit(), "date": datetime.date.today().isoformat()}
+    stamp = {"commit": commit(), "date": datetime.date.today().isoformat()}
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
         futures = {pool.submit(_row, c): c for c in cases}  # the long orbit runs first: the workers finish together
         for fut in as_completed(futures):
