@@ -482,16 +482,17 @@ def _same_optimum(a: _Problem, b: _Problem) -> bool:
             and a.C_TA0[:, 2] @ b.C_TA0[:, 2] > np.cos(np.radians(1.0)))
 
 
+def _mid_times(data: _Data) -> np.ndarray:
+    """The mid-times t̄_k (s) of the curves that have samples in ``data``."""
+    return np.array([0.5 * (t.min() + t.max()) for t in (data.t_s[data.curve == k] for k in range(data.relative.size)) if t.size])
+
+
 def _alias_phase_shift(data: _Data, d_omega: float) -> float:
     """The epoch phase change (rad) that keeps a rate change ``d_omega`` from turning the body at the curves' mid-times t̄_k:
     −arg Σ_k n_k exp(i δω t̄_k), n_k the curve's samples (the circular mean; exact for two curves, whose cycle-count
     aliases δω = 2πn/(t̄₂ − t̄₁) turn both by πn about a mid-span epoch: without it every odd alias started half a turn off)."""
-    z = 0j
-    for k in range(data.relative.size):
-        t = data.t_s[data.curve == k]
-        if t.size:
-            z += t.size * np.exp(1j * d_omega * 0.5 * (t.min() + t.max()))
-    return float(-np.angle(z))
+    counts = np.bincount(data.curve, minlength=data.relative.size)
+    return float(-np.angle(np.sum(counts[counts > 0] * np.exp(1j * d_omega * _mid_times(data)))))
 
 
 def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
@@ -531,7 +532,7 @@ def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axe
             tried[omega] = c
         return tried.get(omega, np.inf)
 
-    mids = [0.5 * (grid.t_s[grid.curve == k].min() + grid.t_s[grid.curve == k].max()) for k in range(grid.relative.size) if np.any(grid.curve == k)]
+    mids = _mid_times(grid)
     spacing = 2 * np.pi / max(np.ptp(mids), 1e-9)
     n = np.arange(np.ceil((omegas[0] - first.omega0) / spacing), np.floor((omegas[-1] - first.omega0) / spacing) + 1)
     teeth = first.omega0 + spacing * n[n != 0] if np.ptp(mids) > 0 else np.zeros(0)
@@ -703,7 +704,7 @@ def _comb_fits(fit: _Problem, chi2: float, grid: _Data, omegas: np.ndarray, n_te
     (73 teeth) the search ended 6 teeth from the truth's (χ² 465.6 against the truth's 431.3 on all data; the teeth n = −3,
     −6, −9 fitted briefly 438, 426, 435); unfitted, the full model put the truth's tooth 3rd of the 73.
     """
-    mids = [0.5 * (grid.t_s[grid.curve == k].min() + grid.t_s[grid.curve == k].max()) for k in range(grid.relative.size) if np.any(grid.curve == k)]
+    mids = _mid_times(grid)
     if np.ptp(mids) <= 0.0:
         return []
     spacing = 2 * np.pi / np.ptp(mids)
@@ -839,7 +840,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     coarse = []  # (χ², fit) on the subsample, from every candidate start
     done = omegas.size
     # distinct cycle-count aliases in the range: rates 2π/(spread of the curves' mid-times) apart
-    mids = [0.5 * (data.t_s[data.curve == k].min() + data.t_s[data.curve == k].max()) for k in range(data.relative.size)]
+    mids = _mid_times(data)
     n_aliases = min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * np.ptp(mids) / (2 * np.pi))) + 1)
     trials = []  # known shape: per candidate pole, (χ², fit) of the screen's model on the grid samples
 

@@ -227,8 +227,7 @@ def test_the_comb_at_an_optimum_reaches_the_cycle_count_the_screen_left_out(atla
     assert len(curves) == 3
     data = S._stack(curves)
     sub, grid = S._subsample(data, 150), S._tempered(S._subsample(data, 60), 0.03)
-    mids = [0.5 * (grid.t_s[grid.curve == k].min() + grid.t_s[grid.curve == k].max()) for k in range(3)]
-    spacing = 2 * np.pi / np.ptp(mids)
+    spacing = 2 * np.pi / np.ptp(S._mid_times(grid))
 
     def fitted(state, n_teeth):
         turn = S.Rotation.from_rotvec([0.0, 0.0, S._alias_phase_shift(grid, n_teeth * spacing)]).as_matrix()
