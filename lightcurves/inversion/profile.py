@@ -91,12 +91,18 @@ def _turned_onto(state: SpinState, pole_I: np.ndarray, epoch: Time) -> np.ndarra
 
 
 def _held_fit(data, model, known: bool, start, max_nfev: int) -> tuple[float, SpinState]:
-    """(χ², state) of the fit with the pole held at ``start``'s (C_IP, rate, C_TA) pole: rate, phase and (known) body axis free."""
+    """(χ², state) of the fit with the pole held at ``start``'s (C_IP, rate, C_TA) pole: rate, phase and (known) body axis free.
+
+    A fit whose rate ran through zero (one short night held at a far pole: the benchmark's one-night vespa, 8700 s the other
+    way) is no spin state of the search: (inf, the start's state)."""
     problem = _Problem(data, model, start[0], start[1], start[2], known, known)
     held = _FixedPole(problem)
     fit = least_squares(held.residuals, np.zeros(problem.n - 2), jac=held.jac if problem.analytic else "2-point", method="trf",
                         diff_step=1e-6, max_nfev=max_nfev)
-    return 2.0 * float(fit.cost), problem.state(np.concatenate([np.zeros(2), fit.x]))
+    theta = np.concatenate([np.zeros(2), fit.x])
+    if not problem.unpack(theta)[1] > 0.0:
+        return np.inf, problem.state(np.zeros(problem.n))
+    return 2.0 * float(fit.cost), problem.state(theta)
 
 
 def _unit_pole(pole_I) -> np.ndarray:

@@ -348,3 +348,26 @@ def test_the_result_does_not_depend_on_the_number_of_worker_threads():
     (c1, s1), (c3, s3) = (pole_profile_chi2(curves, model, one, elsewhere, n_starts=1, max_nfev=20, workers=w) for w in (1, 3))
     assert c1 == c3 and s1.period_s == s3.period_s
     np.testing.assert_array_equal(s1.axis_T, s3.axis_T)
+
+
+def test_a_held_pole_fit_whose_rate_runs_through_zero_is_no_profile_point(monkeypatch):
+    """A held-pole fit of one short night at a far pole can drive the rate through zero (the inversion benchmark's one-night
+    vespa: a period of −8700 s, and the whole region map raised). Such a fit is no spin state the search considers: the
+    profile there is infinite (outside every region) and the state handed on is the fit's start, whose rate is positive."""
+    from scipy.optimize import OptimizeResult
+
+    from lightcurves.inversion import profile as P
+    from lightcurves.inversion.search import _pole_phase_frame, _stack
+    from lightcurves.inversion.spin import axis_frame
+
+    rng = np.random.default_rng(5)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    curves = _observe_curves(truth, ELLIPSOID, _passes(rng, nights=1), rng)
+    data = _stack(curves)
+    start = (_pole_phase_frame(truth, data.epoch), truth.rate_rad_s, axis_frame(truth.axis_T))
+    chi2, state = P._held_fit(data, ELLIPSOID, False, start, 20)
+    assert np.isfinite(chi2) and state.period_s == pytest.approx(60.0, rel=1e-3)  # the fit itself, unharmed
+    tau = np.abs(data.t_s).max()
+    monkeypatch.setattr(P, "least_squares", lambda *a, **k: OptimizeResult(x=np.array([-2.0 * truth.rate_rad_s * tau]), cost=1.0))  # (x_ω): a convex model absorbs the phase
+    chi2, state = P._held_fit(data, ELLIPSOID, False, start, 20)
+    assert chi2 == np.inf and state.period_s == pytest.approx(60.0)
