@@ -368,6 +368,7 @@ def test_a_held_pole_fit_whose_rate_runs_through_zero_is_no_profile_point(monkey
     chi2, state = P._held_fit(data, ELLIPSOID, False, start, 20)
     assert np.isfinite(chi2) and state.period_s == pytest.approx(60.0, rel=1e-3)  # the fit itself, unharmed
     tau = np.abs(data.t_s).max()
-    monkeypatch.setattr(P, "least_squares", lambda *a, **k: OptimizeResult(x=np.array([-2.0 * truth.rate_rad_s * tau]), cost=1.0))  # (x_ω): a convex model absorbs the phase
+    ran_off = OptimizeResult(x=np.array([-2.0 * truth.rate_rad_s * tau]), cost=1.0)  # (x_ω): a convex model absorbs the phase
+    monkeypatch.setattr(P, "least_squares", lambda *a, **k: ran_off)
     chi2, state = P._held_fit(data, ELLIPSOID, False, start, 20)
     assert chi2 == np.inf and state.period_s == pytest.approx(60.0)
