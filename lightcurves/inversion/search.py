@@ -690,40 +690,34 @@ def _other_axis_fits(fit: _Problem, chi2: float, grid: _Data, axes_T: np.ndarray
 
 #: teeth of the cycle-count comb at the best optimum fitted briefly (:func:`_comb_fits`), the best-ranked by the full model
 COMB_TEETH = 8
-#: the comb's teeth are this fraction of a cycle count apart: a body that looks alike a quarter turn apart (box-wing's box)
-#: fits the nights' phases on quarter teeth too (:func:`_comb_fits`)
-COMB_FRACTION = 4
 
 
 def _comb_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, n_teeth: int = COMB_TEETH) -> list[tuple[float, _Problem]]:
     """(χ², fit) on the fit's own samples from the cycle-count aliases of ``fit`` that end lower than ``chi2`` by more than 1:
-    rates ω + 2πn/(COMB_FRACTION Δt) over the rate range ``omegas`` (Δt the spread of the curves' mid-times t̄_k), each
-    started with the phase kept at one night's mid-time (every night in turn) or at their circular mean
-    (:func:`_alias_phase_shift`), whichever fits the grid samples ``plain`` (not tempered) best.
+    rates ω + 2πn/Δt over the rate range ``omegas`` (Δt the spread of the curves' mid-times), each started with the epoch
+    phase kept at the mid-times (:func:`_alias_phase_shift`).
 
     :func:`_alias_trials` walks the comb with the screen's coarse model on tempered samples, which cannot rank the teeth, and
-    only its best few reach the full model. Here every tooth is evaluated with the full model on ``plain`` (no fit), and the
-    ``n_teeth`` lowest are tried as :func:`_lower_from` tries a start, against ``fit`` on ``plain``. With three nights or more
-    χ²(n) is not smooth (only every k-th tooth keeps every night's phase), and a body that looks alike a quarter turn apart
-    fits the nights on quarter teeth, each night's phase kept or turned by a quarter. On the inversion benchmark's objects
-    (``benchmarks/bench_inversion.py``): three nights of atlas-centaur ended 6 teeth from the truth's (χ² 465.6 against the
-    truth's 431.3 on all data), now 425.9; two nights of box-wing ended 162° off at 9945 against the truth's 287, then at
-    the right pole a quarter tooth off at 6591, which tempered samples scored alike (252 against 251).
+    only its best few reach the full model. Here every tooth is evaluated once with the full model on the grid samples
+    ``plain`` (not tempered: the tempering's 3 % model error hides what tells the teeth apart), and the ``n_teeth`` lowest
+    are tried as :func:`_lower_from` tries a start, against ``fit`` on ``plain``. With three nights or more χ²(n) is not
+    smooth: only every k-th tooth keeps every night's phase. On a three-night atlas-centaur object of
+    ``benchmarks/bench_inversion.py`` (its first; 73 teeth) the search ended 6 teeth from the truth's (χ² 465.6 against the
+    truth's 431.3 on all data; the teeth n = −3, −6, −9 fitted briefly 438, 426, 435); unfitted, the full model put the
+    truth's tooth 3rd of the 73. Only the best optimum's comb is walked: on a three-night vespa of the benchmark it took 12 s
+    of the inversion's 122 s of CPU.
     """
     mids = _mid_times(plain)
     if np.ptp(mids) <= 0.0:
         return []
-    spacing = 2 * np.pi / np.ptp(mids) / COMB_FRACTION
+    spacing = 2 * np.pi / np.ptp(mids)
     n = np.arange(np.ceil((omegas[0] - fit.omega0) / spacing), np.floor((omegas[-1] - fit.omega0) / spacing) + 1)
     starts, costs = [], []
     for k in n[n != 0]:
-        d_omega = k * spacing
-        shifts = [_alias_phase_shift(plain, d_omega), *(-d_omega * mids)]
-        tries = [(fit.C_IP0 @ Rotation.from_rotvec([0.0, 0.0, shift]).as_matrix(), fit.omega0 + d_omega, fit.C_TA0) for shift in shifts]
-        cost, start = min(((float(r @ r), t) for t in tries for r in [_Problem(plain, fit.model, *t, True, True).residuals(np.zeros(6))]),
-                          key=lambda c: c[0])
+        start = (fit.C_IP0 @ Rotation.from_rotvec([0.0, 0.0, _alias_phase_shift(plain, k * spacing)]).as_matrix(), fit.omega0 + k * spacing, fit.C_TA0)
+        r = _Problem(plain, fit.model, *start, True, True).residuals(np.zeros(6))
         starts.append(start)
-        costs.append(cost)
+        costs.append(float(r @ r))
     return _lower_from(fit, chi2, plain, [starts[i] for i in np.argsort(costs, kind="stable")[:n_teeth]])
 
 
@@ -874,9 +868,9 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     coarse.extend(_each(full_fit, _trials_to_fit(trials, grid.y.size - 1 - int(data.relative.sum())), workers))
     n_free = sub.y.size - m - int(data.relative.sum())
     kept = _distinct_within_reach(coarse, n_free)
-    if known:  # at each optimum its cycle-count aliases ranked by the full model, then the body turned over (a near-symmetric
-        # shape's other axis sign) and the other principal axes
-        comb = [f for found in _each(lambda k: _comb_fits(k[1], k[0], plain, omegas), kept, workers) for f in found]
+    if known:  # the best optimum's cycle-count aliases ranked by the full model, then at each optimum the body turned over (a
+        # near-symmetric shape's other axis sign) and the other principal axes
+        comb = _comb_fits(kept[0][1], kept[0][0], plain, omegas)
         if comb:
             kept = _distinct_within_reach(coarse + comb, n_free)
         better = [f for found in _each(lambda k: _half_turned_fits(k[1], k[0], grid) + _other_axis_fits(k[1], k[0], grid, axes), kept, workers)
