@@ -62,6 +62,12 @@ seconds (the kinds are interleaved, so every kind is measured); the section says
 
 Objects run in one worker process per core, one thread each (:func:`measure`).
 
+Rows are kept in :data:`ROWS_FILE` as each object finishes (keyed by size and schedule index, stamped with the commit,
+the code — Git's object ids of :data:`CODE_PATHS`, the library and this file — and the date). A run resumes: it measures
+only the scheduled objects that have no row measured by the same code, so the full schedule (~4.5 h on 2 cores) can be
+measured over several runs with a budget each; a change to ``lightcurves/`` or to this file (the draws, the scoring)
+starts it again. Code with uncommitted changes reuses nothing. ``LCNAV_BENCH_INVERSION_FRESH=1`` drops every kept row.
+
 Timing (:func:`timing_table`): ``Size.n_timing`` extra facet objects of exactly 3 nights × :data:`TIMING_SAMPLES` samples
 (the issue's ≤ 10 s case), from their own random stream, timed wall-clock and CPU (all threads of the process) with the
 1-min load average at their start. Times are measured on a shared machine; nothing here is asserted.
@@ -71,11 +77,14 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import datetime
 import functools
+import json
 import multiprocessing
 import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import astropy.units as u
 import numba
@@ -83,6 +92,7 @@ import numpy as np
 from astropy.time import Time
 from scipy import stats
 
+from benchmarks.provenance import code, commit
 from estimators.attitude import quat_to_dcm
 from lightcurves.geometry import DEFAULT_SITE, KeplerOrbit, bisector_rate, find_visible_start, observe
 from lightcurves.inversion.io import from_lightcurve
@@ -95,6 +105,7 @@ from lightcurves.inversion.spin import C_LIGHT_M_S, SpinState, axis_frame, emiss
 from lightcurves.render import UnresolvedRenderer, observed_flux
 from lightcurves.simulate import DEFAULT_EPOCH, simulate_lightcurve
 from lightcurves.targets import TARGETS, get_target
+from studies.engine.io import write_json
 from studies.engine.stats import proportion_interval
 
 REPORT_SEED = 2028
@@ -120,6 +131,9 @@ SIZES = {
 }
 SIZE_ENV = "LCNAV_BENCH_INVERSION_SIZE"  #: name of a key of SIZES (default "full")
 BUDGET_ENV = "LCNAV_BENCH_INVERSION_BUDGET_S"  #: wall-clock budget, s: no object is started after it (default: none)
+FRESH_ENV = "LCNAV_BENCH_INVERSION_FRESH"  #: "1": measure every object again (the kept rows are dropped)
+ROWS_FILE = Path(__file__).with_name("inversion_rows.json")  #: every measured row, keyed "size:schedule index", stamped (module docstring)
+CODE_PATHS = ("lightcurves", "benchmarks/bench_inversion.py")  #: the code a kept row must have been measured by to be reused
 MITSUBA_NIGHTS = 3
 BRUTE_TARGETS = ("atlas-centaur",)  #: the cheapest facet model (384 facets, 2 µs per sample): the grid evaluates it ~10⁷ times per object
 TIMING_TARGETS = ("atlas-centaur", "box-wing", "vespa")  #: the timing objects cycle over these
@@ -479,7 +493,8 @@ def schedule(rng: np.random.Generator, size: Size) -> list[tuple[str, Case]]:
     return [(kind, case) for _, _, kind, case in sorted(keyed, key=lambda k: k[:2])]
 
 
-def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, processes: int | None = None, log=print) -> tuple[dict, int]:
+def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, processes: int | None = None, log=print,
+            kept: dict[int, dict] | None = None, on_row=None) -> tuple[dict, int]:
     """Rows ``facet``, ``mitsuba``, ``timing`` (:func:`run_object`) and ``brute`` (:func:`run_brute`), and the number of scheduled
     objects not run because the wall-clock ``budget_s`` ran out.
 
@@ -489,23 +504,31 @@ def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, p
     (``SeedSequence(REPORT_SEED)`` spawned in schedule order), so a row does not depend on the number of processes or on
     which objects ran before it. The timing objects run first, alone, on all cores (what a user's single inversion gets);
     the budget counts from after them and does not stop them.
+
+    ``kept`` maps schedule indices to rows measured earlier by the same code (:func:`run`): those objects are not run again.
+    ``on_row(j, kind, row)`` is called as each new row finishes (the run keeps it on disk).
     """
     jobs = schedule(rng, size)
     seeds = np.random.SeedSequence(REPORT_SEED).spawn(len(jobs))
+    kept = kept or {}
     rows = {"facet": [], "mitsuba": [], "brute": [], "timing": []}
-    done = 0
+    for j, row in kept.items():
+        rows[jobs[j][0]].append((j, row))
+    done = len(kept)
 
     def keep(j: int, kind: str, row: dict) -> None:
         nonlocal done
         rows[kind].append((j, row))
         done += 1
+        if on_row is not None:
+            on_row(j, kind, row)
         log(f"[inversion] {done}/{len(jobs)} {kind} {_brief(row)} ({time.perf_counter() - t0:.0f} s)")
 
     t0 = time.perf_counter()
     for j, (kind, case) in enumerate(jobs):
-        if kind == "timing":
+        if kind == "timing" and j not in kept:
             keep(j, kind, _job(kind, case, seeds[j], None))
-    queue = [(j, kind, case) for j, (kind, case) in enumerate(jobs) if kind != "timing"]
+    queue = [(j, kind, case) for j, (kind, case) in enumerate(jobs) if kind != "timing" and j not in kept]
     t_pool = time.perf_counter()
     processes = processes or os.cpu_count() or 1
     not_run = 0
@@ -524,7 +547,7 @@ def measure(rng: np.random.Generator, size: Size, *, budget_s: float = np.inf, p
             finished, _ = concurrent.futures.wait(running, return_when=concurrent.futures.FIRST_COMPLETED)
             for future in finished:
                 keep(*running.pop(future), future.result())
-    return {kind: [row for _, row in sorted(kept, key=lambda jr: jr[0])] for kind, kept in rows.items()}, not_run
+    return {kind: [row for _, row in sorted(kept_rows, key=lambda jr: jr[0])] for kind, kept_rows in rows.items()}, not_run
 
 
 def _single_threaded() -> None:
@@ -735,20 +758,55 @@ def report(rows: dict, size: Size, header: str) -> str:
     return "\n".join(parts)
 
 
+def _plain(row: dict) -> dict:
+    """A row with numpy scalars as Python ones (JSON)."""
+    return {k: v.item() if hasattr(v, "item") else v for k, v in row.items()}
+
+
+def _kept_rows(name: str, fingerprint: str) -> dict[int, dict]:
+    """Rows of :data:`ROWS_FILE` for size ``name`` measured by the code ``fingerprint`` (not ``+changes``), by schedule index."""
+    if os.environ.get(FRESH_ENV) == "1" or not ROWS_FILE.exists() or fingerprint.endswith("+changes") or fingerprint == "unknown":
+        return {}
+    stored = json.loads(ROWS_FILE.read_text())
+    return {int(key.split(":")[1]): row for key, row in stored.items() if key.split(":")[0] == name and row.get("code") == fingerprint}
+
+
+def _provenance(rows: dict) -> str:
+    """Which commits and dates the reported rows were measured at (a resumed run reports rows of earlier runs of the same code)."""
+    stamps = {}
+    for kind_rows in rows.values():
+        for r in kind_rows:
+            key = (r.get("commit", "?"), r.get("date", "?"))
+            stamps[key] = stamps.get(key, 0) + 1
+    return "; ".join(f"{n} at commit {c} on {d}" for (c, d), n in sorted(stamps.items(), key=lambda kv: kv[0][1]))
+
+
 def run() -> str:
-    """Measure and report at the size named by ``$LCNAV_BENCH_INVERSION_SIZE`` (default "full") within ``$LCNAV_BENCH_INVERSION_BUDGET_S``."""
+    """Measure and report at the size named by ``$LCNAV_BENCH_INVERSION_SIZE`` (default "full") within ``$LCNAV_BENCH_INVERSION_BUDGET_S``,
+    resuming from the rows of :data:`ROWS_FILE` measured by the same code (module docstring)."""
     name = os.environ.get(SIZE_ENV, "full")
     if name not in SIZES:
         raise ValueError(f"{SIZE_ENV}: {name!r}: expected one of {sorted(SIZES)}")
     budget = float(os.environ.get(BUDGET_ENV, "inf"))
     size = SIZES[name]
+    fingerprint = code(*CODE_PATHS)
+    stamp = {"commit": commit(), "code": fingerprint, "date": datetime.date.today().isoformat()}
+    kept = _kept_rows(name, fingerprint)
+    stored = json.loads(ROWS_FILE.read_text()) if ROWS_FILE.exists() and os.environ.get(FRESH_ENV) != "1" else {}
+
+    def save(j: int, kind: str, row: dict) -> None:
+        stored[f"{name}:{j}"] = _plain(row) | {"kind": kind} | stamp
+        write_json(ROWS_FILE, stored)
+
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     t0 = time.perf_counter()
     processes = os.cpu_count() or 1
-    rows, not_run = measure(np.random.default_rng(REPORT_SEED), size, budget_s=budget, processes=processes)
+    rows, not_run = measure(np.random.default_rng(REPORT_SEED), size, budget_s=budget, processes=processes, kept=kept, on_row=save)
     stopped = (f" **The wall-clock budget of {budget:.0f} s stopped the run: {not_run} scheduled objects were not measured.**" if not_run else "")
     header = (f"Size \"{name}\" {size}; seed {REPORT_SEED}; 1-min load average {load:.1f} at start; objects in {processes} processes of one thread "
-              f"each, the timing objects before them alone on all cores; total "
-              f"{time.perf_counter() - t0:.0f} s.{stopped} Period range given: ±{100 * PERIOD_HALF_WIDTH:g} % around the true synodic period, "
+              f"each, the timing objects before them alone on all cores; this run {time.perf_counter() - t0:.0f} s, "
+              f"{sum(map(len, rows.values())) - len(kept)} objects; {len(kept)} rows kept from earlier runs of the same code "
+              f"(`{fingerprint}`: `lightcurves/` and this file). Rows measured: {_provenance(rows)} (`benchmarks/{ROWS_FILE.name}`).{stopped} "
+              f"Period range given: ±{100 * PERIOD_HALF_WIDTH:g} % around the true synodic period, "
               f"centre jittered by ±{100 * PERIOD_JITTER:g} %. Coverage cells: hits/n, Wilson 95 % interval, pass when the nominal level lies inside it.")
     return report(rows, size, header)

@@ -19,3 +19,17 @@ def commit() -> str:
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
     return head + ("+changes" if dirty.strip() else "")
+
+
+def code(*paths: str) -> str:
+    """Git object ids (short) of the tracked ``paths`` at HEAD, joined by ``.``, with ``+changes`` when any of them differs from
+    HEAD in the working tree: what a kept benchmark row measured, unchanged by commits that touch nothing else; ``unknown``
+    outside a git checkout."""
+    try:
+        ids = [subprocess.run(["git", "rev-parse", "--short", f"HEAD:{p}"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+               for p in paths]
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", *paths],
+                               cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return ".".join(ids) + ("+changes" if dirty.strip() else "")

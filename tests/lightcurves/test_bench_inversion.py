@@ -254,3 +254,23 @@ def test_the_comb_at_an_optimum_reaches_the_cycle_count_the_screen_left_out(atla
     chi2, best = min(S._comb_fits(off, chi2_off, plain, omegas), key=lambda f: f[0])
     assert chi2 <= chi2_truth + B.DCHI2_MISS
     assert abs(best.omega0 - truth.rate_rad_s) < 0.1 * 2 * np.pi / np.ptp(S._mid_times(plain))
+
+
+def test_a_resumed_run_reuses_only_rows_of_the_same_size_and_code(tmp_path, monkeypatch):
+    """Kept rows are reused only when measured at the same size by the same committed code; a run with every object kept
+    measures nothing and reports the kept rows by kind in schedule order."""
+    monkeypatch.setattr(B, "ROWS_FILE", tmp_path / "rows.json")
+    B.write_json(B.ROWS_FILE, {"smoke:0": {"code": "a1.b2", "x": 0}, "smoke:1": {"code": "c3.b2", "x": 1},
+                               "full:2": {"code": "a1.b2", "x": 2}, "smoke:3": {"code": "a1.b2", "x": 3}})
+    assert {j: r["x"] for j, r in B._kept_rows("smoke", "a1.b2").items()} == {0: 0, 3: 3}
+    assert B._kept_rows("smoke", "a1.b2+changes") == {}
+    monkeypatch.setenv(B.FRESH_ENV, "1")
+    assert B._kept_rows("smoke", "a1.b2") == {}
+
+    jobs = B.schedule(np.random.default_rng(B.REPORT_SEED), B.SIZES["smoke"])
+    kept = {j: {"j": j} for j in range(len(jobs))}
+    rows, not_run = B.measure(np.random.default_rng(B.REPORT_SEED), B.SIZES["smoke"], kept=kept, processes=1, log=lambda _: None,
+                              on_row=lambda *a: pytest.fail("a kept object was measured again"))
+    assert not_run == 0
+    for kind, kind_rows in rows.items():
+        assert [r["j"] for r in kind_rows] == [j for j, (k, _) in enumerate(jobs) if k == kind]
