@@ -30,8 +30,8 @@ the shape's).
    comb of cycle-count aliases between nights (which the screen cannot rank) and at the best rate minima of that pole
    (:func:`_alias_trials`), and the ``n_periods_per_pole`` best of those go on, to a fit with the full model on the
    refinement subsample if within :data:`REFINE_REACH` (scaled Δχ²) of the best of all poles, or at the best one's pole
-   (:func:`_trials_to_fit`: the screen's model cannot rank one pole's aliases); each such fit is also started a quarter,
-   half and three quarters of a turn about the spin axis (:func:`_quarter_turned`: a near four-fold look); each kept
+   (:func:`_trials_to_fit`: the screen's model cannot rank one pole's aliases); each such fit is also started from its
+   look-alikes — turned by quarters about the spin axis, turned over, and half an alias off (:func:`_look_alike_fit`); each kept
    optimum is also turned over (:func:`_half_turned_fits`) and tried about the other principal axes (:func:`_other_axis_fits`).
 3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
    reflective) with the full model, first on ``n_refine_samples`` per curve, then — once per distinct
@@ -587,24 +587,37 @@ def _trials_to_fit(per_pole: list[list[tuple[float, _Problem]]], n_free: int) ->
     return chosen + [fit for _, fit in best_pole if not any(fit is c for c in chosen)]
 
 
-def _quarter_turned(chi2: float, fit: _Problem) -> tuple[float, _Problem]:
-    """(χ², fit), or a fit from the body turned by a quarter, half or three quarters of a turn about the spin axis when
-    that start alone (one evaluation each) is already below ``chi2``, and its fit ends lower.
+def _look_alike_fit(chi2: float, fit: _Problem) -> tuple[float, _Problem]:
+    """(χ², fit), or the fit from the best start among the fit's look-alikes that one evaluation each puts below ``chi2``,
+    when that fit ends lower.
 
-    A body with a near four-fold look about its spin axis (box-wing's box) shows the screen's coarse copy the same light
-    curve a quarter turn apart, and a fit cannot turn the body that far: on a four-night box-wing object of
-    ``benchmarks/bench_inversion.py`` the fit from the truth's alias ended at χ² 11164 on the refinement samples (the
-    truth's 465); a quarter turn of its phase gave 5179 unfitted and 454 fitted, 0.09° from the true pole.
+    The look-alikes, none of which a fit reaches by itself: the body turned by a quarter, half or three quarters of a turn
+    about the spin axis (a near four-fold look), turned over (:func:`_half_turns`: a near two-fold look about an axis ⟂ the
+    spin axis), and both, each also at the half cycle-count aliases ω ± π/Δt (Δt the spread of the curves' mid-times, the
+    epoch phase kept at them: :func:`_alias_phase_shift`), which turn the last night by half a turn against the first.
+    The screen's coarse copy cannot tell these apart: on a four-night box-wing object of ``benchmarks/bench_inversion.py``
+    the fit from the truth's alias ended at χ² 11164 on the refinement samples (the truth's 465); a quarter turn of its
+    phase gave 5179 unfitted and 454 fitted, 0.09° from the true pole. On a two-night box-wing (spin about −x) the screen's
+    best fits at the lattice pole 4.8° from the truth spun about +x half an alias off (χ² 13761 on the refinement samples
+    against the truth's 287) and the search ended 162° off.
     """
-    starts = [fit.C_IP0 @ Rotation.from_rotvec([0.0, 0.0, 0.5 * np.pi * j]).as_matrix() for j in (1, 2, 3)]
+    mids = _mid_times(fit.data)
+    half = np.pi / np.ptp(mids) if np.ptp(mids) > 0 else 0.0
+    rates = [0.0, -half, half] if half else [0.0]
+    starts = []
+    for d_omega in rates:
+        C_IP = fit.C_IP0 @ Rotation.from_rotvec([0.0, 0.0, _alias_phase_shift(fit.data, d_omega)]).as_matrix()
+        for C_TA in [fit.C_TA0, *_half_turns(fit.C_TA0)]:
+            starts += [(C_IP @ Rotation.from_rotvec([0.0, 0.0, 0.5 * np.pi * q]).as_matrix(), fit.omega0 + d_omega, C_TA) for q in range(4)]
+    starts = starts[1:]  # the first is the fit itself
     costs = []
-    for C_IP in starts:
-        r = _Problem(fit.data, fit.model, C_IP, fit.omega0, fit.C_TA0, fit.fit_phase, fit.fit_axis).residuals(np.zeros(fit.n))
+    for start in starts:
+        r = _Problem(fit.data, fit.model, *start, fit.fit_phase, fit.fit_axis).residuals(np.zeros(fit.n))
         costs.append(float(r @ r))
     j = int(np.argmin(costs))
     if costs[j] >= chi2:
         return chi2, fit
-    turned, c = _fit(_Problem(fit.data, fit.model, starts[j], fit.omega0, fit.C_TA0, fit.fit_phase, fit.fit_axis), 360)
+    turned, c = _fit(_Problem(fit.data, fit.model, *starts[j], fit.fit_phase, fit.fit_axis), 360)
     return (c, turned) if c < chi2 else (chi2, fit)
 
 
@@ -863,7 +876,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
             progress(done, n_total)
 
     def full_fit(trial: _Problem) -> tuple[float, _Problem]:
-        return _quarter_turned(*_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
+        return _look_alike_fit(*_fit(_Problem(sub, model, trial.C_IP0, trial.omega0, trial.C_TA0, True, True), 360)[::-1])
 
     coarse.extend(_each(full_fit, _trials_to_fit(trials, grid.y.size - 1 - int(data.relative.sum())), workers))
     n_free = sub.y.size - m - int(data.relative.sum())
