@@ -1,19 +1,27 @@
 """Pictures of recordings without a display: rerun's own viewer, headless, draws the blueprint to a PNG.
 
-``rerun --headless --screenshot-to`` runs the native viewer offscreen; on a machine
-with no GPU it draws with Mesa's software Vulkan driver (Debian ``mesa-vulkan-drivers``,
-installed by ``make``). What it shows is what a user sees when they open the file:
-the recording's blueprint, styles and time ranges, so a picture checks all three.
+``rerun --headless`` runs the native viewer offscreen; on a machine with no GPU it draws with
+Mesa's software Vulkan driver (Debian ``mesa-vulkan-drivers``, installed by ``make``). What it
+shows is what a user sees when they open the file: the recording's blueprint, styles and time
+ranges, so a picture checks all three.
+
+The viewer is driven through its control API (``rerun.experimental.ViewerClient``, rerun 0.41): the
+files are opened, the viewer is asked until it has nothing left to load, and pictures are taken until
+two in a row are the same (:func:`_settled_picture`). ``rerun --headless --screenshot-to`` took its picture after a fixed number of frames instead, and
+on a loaded machine that was sometimes before the files had loaded: a picture of the viewer's chrome
+with no plot (2 of 8 pictures with two busy processes on 2 cores, 2026-11-30; all 6 attempts of one
+test in one full test suite), which no check of the picture alone can tell from an empty recording.
 """
 
 from __future__ import annotations
 
 import os
-import re
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 
@@ -34,15 +42,11 @@ MAX_ERROR_BANNER_PX = 1000
 #: A picture whose most common colour covers more than this fraction of it is blank (a failed draw); the viewer's
 #: own chrome alone (panels, menus, time bar) covers ~25 %.
 MAX_BACKGROUND_FRACTION = 0.98
-_ANSI = re.compile(r"\x1b\[[0-9;]*m")
 _NO_DRIVER = ("graphics adapter", "render state", "render context")
-
-
-#: Viewer runs before a picture of existing files that shows the error screen or nothing, with no error in the viewer's
-#: log and exit 0, is called an error: on a loaded machine rerun's headless viewer sometimes saves its frame before the
-#: files have loaded ("Data source finished without loading a recording"; seen in 1 of 4 full test suites on 2 cores).
-#: A file the viewer cannot load logs an ERROR and fails at once.
-VIEWER_ATTEMPTS = 3
+#: Seconds between two questions to the viewer while it starts or loads.
+POLL_S = 0.1
+#: Seconds between two pictures that must be the same for the view to count as drawn (:func:`_settled_picture`).
+SETTLE_S = 0.5
 
 
 def rerun_executable() -> Path:
@@ -51,24 +55,6 @@ def rerun_executable() -> Path:
     if not exe.is_file():
         raise ScreenshotUnavailable(f"rerun not found beside {sys.executable}: install rerun-sdk into this environment")
     return exe
-
-
-def viewer_errors(log: str) -> list[str]:
-    """The ERROR records of the viewer's log (its stderr/stdout, colour codes removed), each with its continuation lines.
-
-    ``2026-...Z ERROR re_viewer::app::add_data_source: Failed to load file ...`` followed by lines that start with no
-    time stamp (``File path: ...``) give one entry ``"re_viewer::app::add_data_source: Failed to load file ... File path: ..."``.
-    """
-    records, current = [], None
-    for line in _ANSI.sub("", log).splitlines():
-        m = re.match(r"^\d{4}-\d\d-\d\dT\S+\s+(\w+)\s+(.*)$", line)
-        if m:
-            current = [m.group(2)] if m.group(1) == "ERROR" else None
-            if current is not None:
-                records.append(current)
-        elif current is not None and line.strip():
-            current.append(line.strip())
-    return [" ".join(r) for r in records]
 
 
 def check_picture(png) -> None:
@@ -89,17 +75,87 @@ def check_picture(png) -> None:
         raise ScreenshotError(f"{png}: the viewer's load-error screen ({banner} pixels of its error banner)")
 
 
+def _free_port() -> int:
+    """A TCP port free on 127.0.0.1 now (the viewer binds it a moment later; :func:`_start_viewer` retries if it was taken)."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _start_viewer(cmd: list[str], work: Path, deadline: float, attempts: int = 3):
+    """(process, client): ``rerun --headless`` started in ``work`` on a free port, and a ``ViewerClient`` that it answered.
+
+    Raises :class:`ScreenshotUnavailable` when the viewer finds no Vulkan driver, :class:`ScreenshotError` when it exits
+    otherwise or does not answer before ``deadline`` (``time.monotonic()``)."""
+    from rerun.experimental import ViewerClient
+
+    env = dict(os.environ, RERUN_ANALYTICS="0")
+    log_path = work / "viewer.log"
+    for _ in range(attempts):
+        port = _free_port()
+        with open(log_path, "w") as log:
+            proc = subprocess.Popen([*cmd, "--port", str(port)], cwd=work, env=env, stdout=log, stderr=subprocess.STDOUT)
+        while time.monotonic() < deadline:
+            if proc.poll() is not None:
+                break
+            try:
+                client = ViewerClient(f"rerun+http://127.0.0.1:{port}/proxy")
+                client.get_state()
+                return proc, client
+            except Exception:  # noqa: BLE001 - not listening yet (the bindings raise their own error types)
+                time.sleep(POLL_S)
+        else:
+            proc.kill()
+            raise ScreenshotError("the headless viewer did not answer in time")
+        log = log_path.read_text(errors="replace")
+        if any(k in log for k in _NO_DRIVER):
+            raise ScreenshotUnavailable("no Vulkan driver (Debian: apt-get install mesa-vulkan-drivers)")
+        if "in use" not in log:  # any other exit than a port taken between _free_port and the viewer
+            raise ScreenshotError(f"the headless viewer exited {proc.returncode}: {log.strip()[-400:]}")
+    raise ScreenshotError(f"the headless viewer found no free port in {attempts} tries")
+
+
+def _loaded(client, paths: list[Path], what: str, deadline: float) -> None:
+    """Open ``paths`` in the viewer and wait until it has nothing left to load; :class:`ScreenshotError` if it logs an ERROR
+    (a file it cannot read), opens no recording, or is still loading at ``deadline``."""
+    opened = client.open([str(p) for p in paths])
+    errors = [e.message.replace("\n", " ") for e in client.get_logs() if e.level == "ERROR"]
+    if errors:
+        raise ScreenshotError(f"the viewer could not show {what}: {errors[0][:400]}")
+    if not opened.store_ids:
+        raise ScreenshotError(f"the viewer opened no recording from {what}")
+    while client.get_state().loading:
+        if time.monotonic() > deadline:
+            raise ScreenshotError(f"the viewer was still loading {what} after the time allowed")
+        time.sleep(POLL_S)
+
+
+def _settled_picture(client, what: str, deadline: float) -> bytes:
+    """The viewer's picture (PNG bytes) once two taken :data:`SETTLE_S` apart are the same: the view has drawn what it loaded.
+
+    A loaded recording is not yet a drawn one: the first picture after the load showed the time-series views' axes and
+    streams but no line in 7 of 8 tries with two busy processes on 2 cores (2026-11-30); the next one had them in 8 of 8."""
+    previous = client.take_screenshot()
+    while time.monotonic() < deadline:
+        time.sleep(SETTLE_S)
+        picture = client.take_screenshot()
+        if picture == previous:
+            return picture
+        previous = picture
+    raise ScreenshotError(f"the viewer's picture of {what} did not settle in the time allowed")
+
+
 def screenshot_recording(rrds, png, *, width_px: int = 1600, height_px: int = 1000, timeout_s: float = 180.0) -> Path:
     """Draw the recording(s) ``rrds`` as the viewer opens them and write ``png`` atomically.
 
-    ``width_px`` × ``height_px`` is the window in logical points (the PNG is
-    drawn at the viewer's pixel scale, usually twice that). The viewer listens
-    on 127.0.0.1 only, on a free port. Paths are resolved against the current
-    folder before the viewer (which runs in a scratch folder) sees them.
+    ``width_px`` × ``height_px`` is the window in logical points (the PNG is drawn at the viewer's pixel scale: one
+    pixel per point headless). The viewer listens on 127.0.0.1 only, on a free port; the picture is taken once it has
+    loaded every file and its picture stopped changing (module docstring). Paths are resolved against the current folder before the viewer (which runs
+    in a scratch folder) sees them.
 
     Raises :class:`ScreenshotUnavailable` if this machine cannot draw headless, and :class:`ScreenshotError` if the
-    viewer exits with an error, logs an ERROR (a file it cannot load), or the picture fails :func:`check_picture`;
-    no ``png`` is written then.
+    viewer exits, logs an ERROR (a file it cannot load), opens no recording, does not finish within ``timeout_s``, or the
+    picture fails :func:`check_picture`; no ``png`` is written then.
     """
     rrds = [Path(p).resolve() for p in ([rrds] if isinstance(rrds, (str, os.PathLike)) else rrds)]
     missing = [str(p) for p in rrds if not p.is_file()]
@@ -112,32 +168,24 @@ def screenshot_recording(rrds, png, *, width_px: int = 1600, height_px: int = 10
         raise ValueError(f"screenshot file must end in .png, got {png.name!r}")
     png.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{png.name}.", dir=png.parent))
+    what = ", ".join(map(str, rrds))
+    deadline = time.monotonic() + timeout_s
+    proc = None
     try:
+        cmd = [str(rerun_executable()), "--headless", "--renderer", "vulkan", "--bind", "127.0.0.1", "--window-size", f"{width_px}x{height_px}"]
+        proc, client = _start_viewer(cmd, work, deadline)
+        _loaded(client, rrds, what, deadline)
         shot = work / "shot.png"
-        cmd = [str(rerun_executable()), "--headless", "--renderer", "vulkan", "--bind", "127.0.0.1", "--port", "auto",
-               "--window-size", f"{width_px}x{height_px}", "--screenshot-to", str(shot), *map(str, rrds)]
-        env = dict(os.environ, RERUN_ANALYTICS="0")
-        what = ", ".join(map(str, rrds))
-        for attempt in range(1, VIEWER_ATTEMPTS + 1):
-            try:
-                res = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=timeout_s)
-            except subprocess.TimeoutExpired as e:
-                raise ScreenshotError(f"the headless viewer did not finish within {timeout_s:g} s") from e
-            log = res.stderr + res.stdout
-            if res.returncode != 0 and any(k in log for k in _NO_DRIVER):
-                raise ScreenshotUnavailable(f"cannot draw {what}: no Vulkan driver (Debian: apt-get install mesa-vulkan-drivers)")
-            errors = viewer_errors(log)
-            if errors:
-                raise ScreenshotError(f"the viewer could not show {what}: {errors[0][:400]}")
-            if res.returncode != 0 or not shot.is_file():
-                raise ScreenshotError(f"could not draw {what}: rerun exited {res.returncode} without a picture")
-            try:
-                check_picture(shot)
-                break
-            except ScreenshotError:  # the viewer saved its frame before the files had loaded, and said nothing (see VIEWER_ATTEMPTS)
-                if attempt == VIEWER_ATTEMPTS:
-                    raise
+        shot.write_bytes(_settled_picture(client, what, deadline))
+        check_picture(shot)
         os.replace(shot, png)
     finally:
+        if proc is not None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
         shutil.rmtree(work, ignore_errors=True)
     return png
