@@ -654,18 +654,23 @@ def _half_turns(C_TA: np.ndarray) -> list[np.ndarray]:
     return turned
 
 
-def _lower_from(fit: _Problem, chi2: float, grid: _Data, starts) -> list[tuple[float, _Problem]]:
-    """(χ², fit) on the fit's own samples from each start (C_IP, ω, C_TA) that ends lower than ``chi2`` by more than 1; each
-    is first tried briefly on the grid samples (``48`` evaluations, as an alias trial) against ``fit`` there, and only one
-    that ends lower goes on (360 evaluations), so a symmetric twin costs a brief fit, not a full one."""
+def _lower_from(fit: _Problem, chi2: float, grid: _Data, starts, margin: float = -1.0) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from each start (C_IP, ω, C_TA) that ends below ``chi2`` + ``margin`` (by default
+    lower by more than 1); each is first tried briefly on the grid samples (``48`` evaluations, as an alias trial) against
+    ``fit`` there with the same margin, and only one that passes goes on (360 evaluations), so a symmetric twin costs a
+    brief fit, not a full one. A positive ``margin`` is scaled, on each set of samples, by max(1, χ²/samples) of ``fit``
+    there (its model error, as :data:`REFINE_REACH`)."""
     on_grid = _Problem(grid, fit.model, fit.C_IP0, fit.omega0, fit.C_TA0, True, True)
     r0 = on_grid.residuals(np.zeros(on_grid.n))
+    chi2_grid = float(r0 @ r0)
+    grid_bound = chi2_grid + (margin * max(1.0, chi2_grid / grid.y.size) if margin > 0 else margin)
+    bound = chi2 + (margin * max(1.0, chi2 / fit.data.y.size) if margin > 0 else margin)
     out = []
     for C_IP, omega, C_TA in starts:
         brief, c = _fit(_Problem(grid, fit.model, C_IP, omega, C_TA, True, True), 48)
-        if c < float(r0 @ r0) - 1.0:
+        if c < grid_bound:
             full, c_full = _fit(_Problem(fit.data, fit.model, brief.C_IP0, brief.omega0, brief.C_TA0, True, True), 360)
-            if c_full < chi2 - 1.0:
+            if c_full < bound:
                 out.append((c_full, full))
     return out
 
@@ -703,12 +708,19 @@ def _other_axis_fits(fit: _Problem, chi2: float, grid: _Data, axes_T: np.ndarray
 
 #: teeth of the cycle-count comb at the best optimum fitted briefly (:func:`_comb_fits`), the best-ranked by the full model
 COMB_TEETH = 8
+#: Δχ² (scaled as :data:`REFINE_REACH`) above the best optimum within which a tooth's fit is kept as an optimum of its own
+#: (:func:`_comb_fits`): a mode that far above has a Laplace weight of e^−8 ≈ 3e-4 of the best (:mod:`.posterior`), below
+#: what a 95 % region needs, so aliases beyond it may be left out.
+COMB_KEEP = 16.0
 
 
 def _comb_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, n_teeth: int = COMB_TEETH) -> list[tuple[float, _Problem]]:
-    """(χ², fit) on the fit's own samples from the cycle-count aliases of ``fit`` that end lower than ``chi2`` by more than 1:
-    rates ω + 2πn/Δt over the rate range ``omegas`` (Δt the spread of the curves' mid-times), each started with the epoch
-    phase kept at the mid-times (:func:`_alias_phase_shift`).
+    """(χ², fit) on the fit's own samples from the cycle-count aliases of ``fit`` that end below ``chi2`` + :data:`COMB_KEEP`
+    (scaled): rates ω + 2πn/Δt over the rate range ``omegas`` (Δt the spread of the curves' mid-times), each started with
+    the epoch phase kept at the mid-times (:func:`_alias_phase_shift`). Lower ones move the search on; the others are
+    modes of the posterior that the data can hardly tell from the best (a two-night box-wing of
+    ``benchmarks/bench_inversion.py`` listed the teeth n = −3 … +2 and +5 about the truth's but not the truth's own, whose
+    χ² was within 6 of the best: its period lay outside every listed mode's region).
 
     :func:`_alias_trials` walks the comb with the screen's coarse model on tempered samples, which cannot rank the teeth, and
     only its best few reach the full model. Here every tooth is evaluated once with the full model on the grid samples
@@ -731,7 +743,7 @@ def _comb_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, n_t
         r = _Problem(plain, fit.model, *start, True, True).residuals(np.zeros(6))
         starts.append(start)
         costs.append(float(r @ r))
-    return _lower_from(fit, chi2, plain, [starts[i] for i in np.argsort(costs, kind="stable")[:n_teeth]])
+    return _lower_from(fit, chi2, plain, [starts[i] for i in np.argsort(costs, kind="stable")[:n_teeth]], COMB_KEEP)
 
 
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
