@@ -174,9 +174,14 @@ def screenshot_recording(rrds, png, *, width_px: int = 1600, height_px: int = 10
     try:
         cmd = [str(rerun_executable()), "--headless", "--renderer", "vulkan", "--bind", "127.0.0.1", "--window-size", f"{width_px}x{height_px}"]
         proc, client = _start_viewer(cmd, work, deadline)
-        _loaded(client, rrds, what, deadline)
         shot = work / "shot.png"
-        shot.write_bytes(_settled_picture(client, what, deadline))
+        try:
+            _loaded(client, rrds, what, deadline)
+            shot.write_bytes(_settled_picture(client, what, deadline))
+        except ScreenshotError:
+            raise
+        except Exception as e:  # noqa: BLE001 - the control API's own errors: a viewer that died or stopped answering
+            raise ScreenshotError(f"the headless viewer stopped answering while drawing {what}: {e}") from e
         check_picture(shot)
         os.replace(shot, png)
     finally:
