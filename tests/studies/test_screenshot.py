@@ -41,6 +41,18 @@ def line_pixels(png) -> dict:
     return {k: pixels_near(image, rgb) for k, rgb in XYZ.items()}
 
 
+def headless_viewers() -> set[int]:
+    """Process ids of the headless viewers running now (the launcher's child included)."""
+    import psutil
+
+    out = set()
+    for p in psutil.process_iter(["cmdline"]):
+        cmd = p.info["cmdline"] or []
+        if "--headless" in cmd and any(c.endswith("rerun") for c in cmd[:2]):
+            out.add(p.pid)
+    return out
+
+
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     """A recording of one filter's ``w_ST_T`` estimate (coloured per component) against its truth, 600 s."""
@@ -56,7 +68,9 @@ def small_run(tmp_path_factory):
 def test_the_viewer_opens_on_truth_and_estimate_in_their_component_colours(small_run, tmp_path, monkeypatch):
     (tmp_path / "run.rrd").symlink_to(small_run)
     monkeypatch.chdir(tmp_path)  # relative paths, as in the README: the viewer once showed "No such file" for them
+    before = headless_viewers()
     assert shot("run.rrd", "shot.png", width_px=900, height_px=600) == tmp_path / "shot.png"
+    assert headless_viewers() <= before  # the viewer ended with its launcher (it once outlived it)
     assert mpimg.imread(tmp_path / "shot.png").shape[:2] >= (600, 900)
     counts = line_pixels(tmp_path / "shot.png")
     # each estimate line is drawn across the plot: hundreds of pixels of its hue
