@@ -1,4 +1,4 @@
-"""The inversion benchmark's own machinery (``benchmarks/bench_inversion.py``) at a smoke-test size.
+"""The inversion benchmark's own machinery (``benchmarks/inversion_objects.py``, ``benchmarks/bench_inversion.py``) at a smoke-test size.
 
 Checked against references that do not come from the code under test: the χ² distribution of the
 residuals at the simulated truth (the simulation's and the inversion's conventions agree), the χ²
@@ -13,7 +13,8 @@ import pytest
 from astropy.time import Time
 from scipy import stats
 
-from benchmarks import bench_inversion as B
+from benchmarks import bench_inversion as R
+from benchmarks import inversion_objects as B
 from lightcurves.inversion.known_shape import KnownShapeModel
 from lightcurves.inversion.posterior import SpinSolution, tangent_exp
 from lightcurves.inversion.search import invert, profiled_chi2
@@ -260,13 +261,13 @@ def test_the_comb_at_an_optimum_reaches_the_cycle_count_the_screen_left_out(atla
 def test_a_resumed_run_reuses_only_rows_of_the_same_size_and_code(tmp_path, monkeypatch):
     """Kept rows are reused only when measured at the same size by the same committed code; a run with every object kept
     measures nothing and reports the kept rows by kind in schedule order."""
-    monkeypatch.setattr(B, "ROWS_FILE", tmp_path / "rows.json")
-    B.write_json(B.ROWS_FILE, {"smoke:0": {"code": "a1.b2", "x": 0}, "smoke:1": {"code": "c3.b2", "x": 1},
+    monkeypatch.setattr(R, "ROWS_FILE", tmp_path / "rows.json")
+    R.write_json(R.ROWS_FILE, {"smoke:0": {"code": "a1.b2", "x": 0}, "smoke:1": {"code": "c3.b2", "x": 1},
                                "full:2": {"code": "a1.b2", "x": 2}, "smoke:3": {"code": "a1.b2", "x": 3}})
-    assert {j: r["x"] for j, r in B._kept_rows("smoke", "a1.b2").items()} == {0: 0, 3: 3}
-    assert B._kept_rows("smoke", "a1.b2+changes") == {}
-    monkeypatch.setenv(B.FRESH_ENV, "1")
-    assert B._kept_rows("smoke", "a1.b2") == {}
+    assert {j: r["x"] for j, r in R._kept_rows("smoke", "a1.b2").items()} == {0: 0, 3: 3}
+    assert R._kept_rows("smoke", "a1.b2+changes") == {}
+    monkeypatch.setenv(R.FRESH_ENV, "1")
+    assert R._kept_rows("smoke", "a1.b2") == {}
 
     jobs = B.schedule(np.random.default_rng(B.REPORT_SEED), B.SIZES["smoke"])
     kept = {j: {"j": j} for j in range(len(jobs))}
@@ -275,6 +276,13 @@ def test_a_resumed_run_reuses_only_rows_of_the_same_size_and_code(tmp_path, monk
     assert not_run == 0
     for kind, kind_rows in rows.items():
         assert [r["j"] for r in kind_rows] == [j for j, (k, _) in enumerate(jobs) if k == kind]
+
+
+def test_the_report_names_the_commit_of_rows_measured_in_this_run():
+    """A resumed run reports kept rows at their own commit and the rows it measured itself at its own (they carried no stamp:
+    the header said "at commit ? on ?")."""
+    rows = {"facet": [{"commit": "a1", "date": "2026-11-29"}, {}], "timing": [{}]}
+    assert R._provenance(rows, {"commit": "b2", "date": "2026-11-30"}) == "1 at commit a1 on 2026-11-29; 2 at commit b2 on 2026-11-30"
 
 
 @pytest.mark.slow
