@@ -31,8 +31,11 @@ the shape's).
    (:func:`_alias_trials`), and the ``n_periods_per_pole`` best of those go on, to a fit with the full model on the
    refinement subsample if within :data:`REFINE_REACH` (scaled Δχ²) of the best of all poles, or at the best one's pole
    (:func:`_trials_to_fit`: the screen's model cannot rank one pole's aliases); each such fit is also started from its
-   look-alikes — turned by quarters about the spin axis, turned over, and half an alias off (:func:`_look_alike_fit`); each kept
-   optimum is also turned over (:func:`_half_turned_fits`) and tried about the other principal axes (:func:`_other_axis_fits`).
+   look-alikes — turned by quarters about the spin axis, turned over, and half an alias off (:func:`_look_alike_fit`). Then
+   (:func:`_known_shape_optima`) the full model rescreens rate, body axis and phase at the best optimum's own pole
+   (:func:`_rescreen_fits`), the new best's cycle-count aliases are ranked by the full model and those within
+   :data:`COMB_KEEP` kept (:func:`_comb_fits`), and each kept optimum is also turned over (:func:`_half_turned_fits`) and
+   tried about the other principal axes (:func:`_other_axis_fits`).
 3. Refinement of the best local minima of the pole map with scipy ``least_squares`` (trust-region
    reflective) with the full model, first on ``n_refine_samples`` per curve, then — once per distinct
    optimum within :data:`REFINE_REACH` of the best — on all data, in the rotation-vector increment of the pole frame,
@@ -342,6 +345,18 @@ def _subsample(data: _Data, per_curve: int) -> _Data:
         i = np.flatnonzero(data.curve == k)
         idx.append(i if i.size <= per_curve else i[np.round(np.linspace(0, i.size - 1, per_curve)).astype(int)])
     return data.subset(np.concatenate(idx))
+
+
+#: The screening stages' relative model error ε (:func:`_tempered`, ``invert(screen_rel_error=)``): what the screen's node nearest
+#: the truth gets wrong. That node is off the truth by the lattice (pole up to ~4° off at 7.5°, median 3°) and the phase
+#: grid (±3.75° at 48 phases), and evaluated with the coarse copy. Measured over 4000 random attitudes and Sun/observer pairs
+#: (phase angle < 60°), rms of the relative brightness error: atlas-centaur 0.11–0.12, box-wing 0.09–0.11, vespa 0.20–0.28
+#: (the coarse copy alone 0.005, 0.03, 0.12; the median error is 0.03–0.06, the rms is the glints'); 0.1, the two
+#: shapes' value. The 0.03 used before (the coarse copy's error alone) left that node out-ranked on 2 of 93 objects of
+#: ``benchmarks/bench_inversion.py`` whose search then ended 165–170° off (a five-night atlas-centaur, Δχ² −12599 at the
+#: truth; a two-night box-wing, −11246): the truth's lattice pole ranked 70th and 59th of ~330 in the screen (79th and 7th
+#: with 0.1), and with 0.1 both searches end at the truth's optimum (pole 0.15° and 0.01° off).
+SCREEN_REL_ERROR = 0.1
 
 
 def _tempered(data: _Data, rel_error: float) -> _Data:
@@ -724,7 +739,7 @@ def _comb_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, n_t
 
     :func:`_alias_trials` walks the comb with the screen's coarse model on tempered samples, which cannot rank the teeth, and
     only its best few reach the full model. Here every tooth is evaluated once with the full model on the grid samples
-    ``plain`` (not tempered: the tempering's 3 % model error hides what tells the teeth apart), and the ``n_teeth`` lowest
+    ``plain`` (not tempered: the tempering's model error, :data:`SCREEN_REL_ERROR`, hides what tells the teeth apart), and the ``n_teeth`` lowest
     are tried as :func:`_lower_from` tries a start, against ``fit`` on ``plain``. With three nights or more χ²(n) is not
     smooth: only every k-th tooth keeps every night's phase. On a three-night atlas-centaur object of
     ``benchmarks/bench_inversion.py`` (its first; 73 teeth) the search ended 6 teeth from the truth's (χ² 465.6 against the
@@ -744,6 +759,53 @@ def _comb_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, n_t
         starts.append(start)
         costs.append(float(r @ r))
     return _lower_from(fit, chi2, plain, [starts[i] for i in np.argsort(costs, kind="stable")[:n_teeth]], COMB_KEEP)
+
+
+#: the rescreen at the best optimum's pole (:func:`_rescreen_fits`): its rate grid this many times finer than the screen's, its
+#: phases this many times as many
+RESCREEN_REFINE = (4, 2)
+
+
+def _rescreen_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray, axes_T: np.ndarray, n_phases: int,
+                   n_starts: int = 8) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from the best minima of a screen with the full model at the fit's pole, on the grid
+    samples ``plain`` (not tempered), over the whole rate range (:data:`RESCREEN_REFINE` finer than the screen's ``omegas``),
+    every body axis ``axes_T`` and twice the phases; the ``n_starts`` best rate minima are tried as :func:`_lower_from` tries
+    a start, and kept within :data:`COMB_KEEP`.
+
+    The stages before it start every fit from the coarse screen's body axis, phase and rate at a lattice pole, and each mends
+    one kind of look-alike from there (turned, turned over, another axis, another tooth of the comb); a start wrong in two of
+    them at once is out of their reach. At the best optimum's own pole (no lattice offset) the full model ranks rate, axis and
+    phase together. On a four-night box-wing (seed 9005 of the calibration draws) with the screening tolerance at 0.1, the
+    search found the pole (0.0° off) at χ² 7368 above the truth's, every fit on a wrong tooth and axis; the rescreen's minima
+    led to the truth's optimum (χ² 9.2 below the truth's, pole 0.1°). With the screen's own rate and phase steps it did not:
+    a rate off the grid turns the farthest night by up to a phase step, a glint's worth of χ².
+    """
+    pole = fit.C_IP0[:, 2]
+    rates, phases = RESCREEN_REFINE
+    fine = np.linspace(omegas[0], omegas[-1], rates * (omegas.size - 1) + 1)
+    scr = screen_phases(plain, fit.model, pole[None, :], axes_T, fine, n_phases=phases * n_phases)
+    starts = [(pole_frame(pole) @ Rotation.from_rotvec([0.0, 0.0, scr.phase_rad[0, i]]).as_matrix(), fine[i], axis_frame(axes_T[scr.axis_index[0, i]]))
+              for i in _period_minima(scr.chi2[0], n_starts)]
+    return _lower_from(fit, chi2, plain, starts, COMB_KEEP)
+
+
+def _known_shape_optima(coarse, kept, plain: _Data, grid: _Data, omegas: np.ndarray, axes_T: np.ndarray, n_phases: int, n_free: int,
+                        workers: int) -> list[tuple[float, _Problem]]:
+    """Step 2's last stages for a known shape, from the subsample fits ``coarse`` and their distinct optima ``kept``: the rescreen
+    at the best optimum's pole (:func:`_rescreen_fits`), the cycle-count aliases of the (new) best ranked by the full model
+    (:func:`_comb_fits`), then at each optimum the body turned over (a near-symmetric shape's other axis sign) and the other
+    principal axes; the distinct optima within reach, best first."""
+    rescreen = _rescreen_fits(kept[0][1], kept[0][0], plain, omegas, axes_T, n_phases)
+    if rescreen:
+        coarse = coarse + rescreen
+        kept = _distinct_within_reach(coarse, n_free)
+    comb = _comb_fits(kept[0][1], kept[0][0], plain, omegas)
+    if comb:
+        kept = _distinct_within_reach(coarse + comb, n_free)
+    better = [f for found in _each(lambda k: _half_turned_fits(k[1], k[0], grid) + _other_axis_fits(k[1], k[0], grid, axes_T), kept, workers)
+              for f in found]
+    return _distinct_within_reach(coarse + comb + better, n_free) if better else kept
 
 
 def _refine(problem: _Problem, data: _Data) -> tuple[_Problem, np.ndarray, float, np.ndarray, np.ndarray]:
@@ -805,7 +867,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
            progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
            n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
            axes_T=None, n_phases: int = 48, n_refine_samples: int = 150, screen_known_facets: int = 48, n_aliases: int = 40,
-           screen_rel_error: float = 0.03, workers: int | None = None) -> InversionResult:
+           screen_rel_error: float = SCREEN_REL_ERROR, workers: int | None = None) -> InversionResult:
     """Spin state(s) of one object from its light curves: all modes the data cannot tell apart (module docstring).
 
     Parameters
@@ -830,7 +892,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     screen_rel_error : known shape: relative model error ε the screening stages assume (:func:`_tempered`): σ² + (ε y)² on the grid
         samples. At the data's noise alone (ε = 0) a screen step's offset costs more χ² than a wrong basin: on an atlas-centaur
         night (``benchmarks/bench_inversion.py``, σ/y ≈ 1 %) the lattice pole 4° from the truth screened at χ² 5e4 against 2.7e4
-        for a pole 58° off, and the search ended 145° off.
+        for a pole 58° off, and the search ended 145° off. Default :data:`SCREEN_REL_ERROR`.
     n_aliases : the rate minima of each candidate pole's screen row from which up to 4 untried ones are fitted briefly besides
         the alias comb (step 2 of the module docstring; fewer when the range holds fewer cycle-count aliases).
     workers : threads that run a stage's independent fits at once (default :func:`default_workers`; the result is the same
@@ -893,15 +955,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     coarse.extend(_each(full_fit, _trials_to_fit(trials, grid.y.size - 1 - int(data.relative.sum())), workers))
     n_free = sub.y.size - m - int(data.relative.sum())
     kept = _distinct_within_reach(coarse, n_free)
-    if known:  # the best optimum's cycle-count aliases ranked by the full model, then at each optimum the body turned over (a
-        # near-symmetric shape's other axis sign) and the other principal axes
-        comb = _comb_fits(kept[0][1], kept[0][0], plain, omegas)
-        if comb:
-            kept = _distinct_within_reach(coarse + comb, n_free)
-        better = [f for found in _each(lambda k: _half_turned_fits(k[1], k[0], grid) + _other_axis_fits(k[1], k[0], grid, axes), kept, workers)
-                  for f in found]
-        if better:
-            kept = _distinct_within_reach(coarse + comb + better, n_free)
+    if known:
+        kept = _known_shape_optima(coarse, kept, plain, grid, omegas, axes, n_phases, n_free, workers)
     kept = [fit for _, fit in kept]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
     if progress is not None and done < n_total:  # fewer local minima than n_candidates: the bar still ends full
