@@ -19,7 +19,8 @@ the shape's).
    on at most ``n_grid_samples`` samples per curve.
    * Unknown shape: a coarse convex model (``screen_facets`` normals, unconstrained ridge least squares, batched
      over all poles): a convex model absorbs the rotational phase and the body axis, so the grid has only pole and period.
-   * Known shape (``basis`` has one column): the shape itself (its ``coarse(screen_known_facets)`` copy) over
+   * Known shape (``basis`` has one column): the shape itself (a merged copy within :data:`SCREEN_COPY_REL_ERROR` of it,
+     :func:`screen_copy`) over
      pole × body axis (``axes_T``) × rate × phase (``n_phases``), from per-curve phase tables (:mod:`.phase_screen`),
      the rate step refined so that the phase at the span's ends moves by at most one phase step; the poles coarse to fine
      (:func:`_known_screen`: a lattice at twice the spacing, then the full lattice around its best minima). A convex stand-in
@@ -73,7 +74,7 @@ from lightcurves.inversion.posterior import InversionResult, SpinSolution, disti
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
 
-__all__ = ["invert", "profiled_chi2", "period_grid", "default_workers"]
+__all__ = ["invert", "profiled_chi2", "period_grid", "default_workers", "screen_copy"]
 
 _PRINCIPAL_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], dtype=float)
 
@@ -359,6 +360,42 @@ def _subsample(data: _Data, per_curve: int) -> _Data:
 #: truth; a two-night box-wing, −11246): the truth's lattice pole ranked 70th and 59th of ~330 in the screen (79th and 7th
 #: with 0.1), and with 0.1 both searches end at the truth's optimum (pole 0.15° and 0.01° off).
 SCREEN_REL_ERROR = 0.1
+
+
+#: the screening copy's largest rms relative brightness error against the full model (:func:`screen_copy`): it adds in
+#: quadrature to the screening tolerance :data:`SCREEN_REL_ERROR`, by at most 8 % at 0.04.
+SCREEN_COPY_REL_ERROR = 0.04
+#: the facet counts :func:`screen_copy` tries, fewest first
+SCREEN_COPY_FACETS = (48, 96, 192, 384)
+
+
+def screen_copy(model, max_facets: int | None = None):
+    """The known shape's screening copy: ``model.coarse(max_facets)``, or with ``max_facets`` None the copy of the fewest
+    :data:`SCREEN_COPY_FACETS` whose rms relative brightness error against ``model`` is within :data:`SCREEN_COPY_REL_ERROR`
+    (else the model itself), over 2000 fixed random Sun and observer directions at phase angles below 60° (samples fainter
+    than 5 % of the median left out). A model without ``coarse`` is its own copy.
+
+    Measured (2026-11-30) at 48 / 96 / 192 / 384 facets: atlas-centaur 0.004 / 0.002 / 0.000, box-wing 0.030 / 0.003 / 0.000,
+    vespa 0.140 / 0.051 / 0.029 / 0.013 (its 7680 curved facets: a merged facet glints where the shell does not). With 48
+    facets vespa's screen ranked the lattice pole nearest the truth 325th and 328th of ~330 on two objects of
+    ``benchmarks/bench_inversion.py`` (schedule indices 65, 27) whose search then ended 68° and 90° off; with 192, 72nd and
+    57th, and the searches ended at χ² 1.1 below and 25 above the truth's (31 and 202 above before), for the same CPU.
+    """
+    if not hasattr(model, "coarse"):
+        return model
+    if max_facets is not None:
+        return model.coarse(max_facets)
+    rng = np.random.default_rng(0)
+    sun, obs = (v / np.linalg.norm(v, axis=1, keepdims=True) for v in rng.normal(size=(2, 4000, 3)))
+    near = np.einsum("ij,ij->i", sun, obs) > np.cos(np.radians(60.0))
+    sun, obs = sun[near][:2000], obs[near][:2000]
+    full = model.basis(sun, obs)[:, 0]
+    lit = full > 0.05 * np.median(full)
+    for n in SCREEN_COPY_FACETS:
+        copy = model.coarse(n)
+        if np.sqrt(np.mean(((copy.basis(sun, obs)[:, 0] - full)[lit] / full[lit]) ** 2)) <= SCREEN_COPY_REL_ERROR:
+            return copy
+    return model
 
 
 def _tempered(data: _Data, rel_error: float) -> _Data:
@@ -935,7 +972,7 @@ def _validate(curves, period_range_s) -> tuple[float, float]:
 def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float, float], *, rng: np.random.Generator | None = None,
            progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
            n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
-           axes_T=None, n_phases: int = 48, n_refine_samples: int = 150, screen_known_facets: int = 48, n_aliases: int = 40,
+           axes_T=None, n_phases: int = 48, n_refine_samples: int = 150, screen_known_facets: int | None = None, n_aliases: int = 40,
            screen_rel_error: float = SCREEN_REL_ERROR, workers: int | None = None) -> InversionResult:
     """Spin state(s) of one object from its light curves: all modes the data cannot tell apart (module docstring).
 
@@ -957,7 +994,8 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     n_phases : phases of a known shape's screen (:mod:`.phase_screen`; the rate step follows, ``period_oversampling``
         at least n_phases/8).
     n_refine_samples : samples per curve of the first refinement; the optimum is then polished on all samples.
-    screen_known_facets : facets of the known shape's screening copy (``model.coarse``, when it has one).
+    screen_known_facets : facets of the known shape's screening copy (``model.coarse``, when it has one); default: the fewest
+        that keep it within :data:`SCREEN_COPY_REL_ERROR` of the model (:func:`screen_copy`).
     screen_rel_error : known shape: relative model error ε the screening stages assume (:func:`_tempered`): σ² + (ε y)² on the grid
         samples. At the data's noise alone (ε = 0) a screen step's offset costs more χ² than a wrong basin: on an atlas-centaur
         night (``benchmarks/bench_inversion.py``, σ/y ≈ 1 %) the lattice pole 4° from the truth screened at χ² 5e4 against 2.7e4
@@ -986,7 +1024,7 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     screen = None
     if known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
         grid = _tempered(grid, screen_rel_error)
-        screen_model = model.coarse(screen_known_facets) if hasattr(model, "coarse") else model
+        screen_model = screen_copy(model, screen_known_facets)
         poles, screen = _known_screen(grid, screen_model, poles, turn, axes, omegas, n_phases, 2 * n_candidates,
                                       None if progress is None else (lambda f: progress(round(f * omegas.size), n_total)))
         chi2_grid = screen.chi2
