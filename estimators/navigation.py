@@ -83,6 +83,9 @@ class NavigationRun:
     #: times (s since ``t[0]``) of the re-linearisations whose fit passed only with the spin prior's rate made flat:
     #: the prior contradicts the measurements (:func:`estimators.batch.posterior`, ``suspect``)
     prior_contradicted: tuple[float, ...] = ()
+    #: times (s since ``t[0]``) of the fixed-lag windows used only after a refit with the inertia ratios' prior widened to
+    #: ``P_0``'s (:class:`_Relinearization`): the filter's own ``k`` had left the data's basin
+    inertia_resets: tuple[float, ...] = ()
     #: UKF: sigma-point draws whose covariance had no Cholesky factor and was floored (:func:`estimators.ukf.scaled_cholesky`)
     regularizations: int = 0
     #: (N,) seconds per step by ``run_navigation``'s ``clock`` (predict, updates, re-linearisation; NaN at step 0), or None
@@ -185,6 +188,7 @@ def run_navigation(
         decisions=tuple(filt.gate_decisions), reacquisitions=tuple(reacq.events) if reacq is not None else (),
         relinearizations=tuple(relin.events) if relin is not None else (),
         prior_contradicted=tuple(relin.prior_contradicted) if relin is not None else (),
+        inertia_resets=tuple(relin.inertia_resets) if relin is not None else (),
         regularizations=filt.regularizations, step_s=step_s if clock is not None else None,
     )
 
@@ -233,6 +237,17 @@ class _Relinearization:
     trajectory (:mod:`estimators.batch`, *Process noise*). The EKF and the UKF each keep their own outputs, so
     their windows start from their own estimates. A fit that fails its tests (:attr:`estimators.batch.BatchPosterior.usable`)
     leaves the filter as it is, and puts it back into its settling phase until one passes.
+    *The inertia ratios' window prior widened* (issue 31): a window's prior on ``k`` is the filter's own output, the
+    Gaussian summary of a curved ridge (above), which can be narrow and wrong. SC1 perturbed, seed 3026 (600 s, EKF):
+    from 160 s the window fits moved ``k`` by more than their σ from one to the next, at 280 s one put it at
+    (0.16, −1.35) with σ (0.24, 0.13) against the truth's (1.47, −1.44); every later window failed its χ² test and the
+    filter, ``k`` held, lost the rate (the run's NEES/dof 240, all of the ten-minute SC1 row's 9.0). A window that
+    estimates ``k`` and fails is therefore refitted once with ``k``'s prior replaced by the filter's initial one
+    (``P_0``'s ``k`` block, uncorrelated with the rest, so the window's data and the restarts across that prior of
+    :mod:`estimators.batch` decide ``k``), and used if that fit passes; the time is noted in ``inertia_resets``. It only
+    forgets what earlier windows knew of ``k``; nothing is counted twice. Making ``k``'s prior flat instead (as a spin
+    prior's rate is) sent that run's ``k`` into another wrong basin, (−1.46, −0.12): a 60-s window of a one-axis
+    tumble does not fix ``k`` on its own.
     With a spin prior (``spin_prior``) the rate is ``suspect`` to the fit: a fit that
     fails is redone with the prior's rate made flat, and if that one passes, the
     filter is reset to it and the time is noted in ``prior_contradicted``.
@@ -260,6 +275,8 @@ class _Relinearization:
         self.events: list[tuple[float, int, bool]] = []
         self.suspect = np.arange(N_ERROR)[DW_ST_T] if spin_prior else ()
         self.prior_contradicted: list[float] = []
+        #: steps (s since ``t[0]``) whose window was used only after refitting it with ``k``'s prior widened to ``P_0``'s
+        self.inertia_resets: list[float] = []
 
     def step(self, filt, k: int, t_s: float, parts, decisions) -> None:
         """Record step ``k``'s accepted measurements; fit and reset the filter when a re-linearisation is due."""
@@ -296,6 +313,8 @@ class _Relinearization:
         # from the filter is a linearisation the filter does not share; measured once on SC1 perturbed without this test,
         # a fit that passed its own χ² test at 1010 s took the NEES/dof from 0.9 to 37 for 50 s)
         usable = post.usable and (not last_resort or _agrees(filt, post.x))
+        if not usable and self.lag_steps and self.k_states is not None:  # the window's k prior may be what is wrong (class docstring)
+            post, usable = self._refit_with_initial_inertia(post, usable, x_prior, P_prior, k, k_start, start, t_s)
         self.events.append((float(t_s), post.nodes, usable, post.dof))
         self.trusted = usable
         self.weak_directions = np.zeros((0, N_ERROR)) if post.weak_directions is None else post.weak_directions
@@ -307,6 +326,24 @@ class _Relinearization:
             if self.lag_steps and post.nodes == 0 and post.dof >= ANCHOR_KEPT * post.offered:
                 self.anchors.append((k, filt.x.copy(), filt.P.copy()))
         self._keep_output(filt, k)
+
+    def _refit_with_initial_inertia(self, post, usable: bool, x_prior, P_prior, k: int, k_start: int, start, t_s: float):
+        """``(post, usable)``: the failed window refitted with the inertia ratios' prior widened to the filter's initial one
+        (``P_0``'s ``k`` block, uncorrelated with the rest), if that fit passes its tests; else the failed one unchanged."""
+        ks = self.k_states
+        P_wide = P_prior.copy()
+        P_wide[ks, :] = 0.0
+        P_wide[:, ks] = 0.0
+        P_wide[np.ix_(ks, ks)] = self.P0[np.ix_(ks, ks)]
+        try:
+            alt = posterior(self.model, self.servicer, self.history, x_prior, P_wide, k, self.tau, k_start=k_start, x0_start=start,
+                            consider=self.consider, k_states=ks, suspect=self.suspect, Q=self.Q)
+        except BatchFitError:
+            return post, usable
+        if not alt.usable:
+            return post, usable
+        self.inertia_resets.append(float(t_s))
+        return alt, True
 
     def _keep_output(self, filt, k: int) -> None:
         """Keep the filter's output after the fit at step ``k``; forget those older than the bound (bounded memory)."""
