@@ -314,7 +314,10 @@ class _Relinearization:
         # a fit that passed its own χ² test at 1010 s took the NEES/dof from 0.9 to 37 for 50 s)
         usable = post.usable and (not last_resort or _agrees(filt, post.x))
         if not usable and self.lag_steps and self.k_states is not None:  # the window's k prior may be what is wrong (class docstring)
-            post, usable = self._refit_with_initial_inertia(post, usable, x_prior, P_prior, k, k_start, start, t_s)
+            wide = self._refit_with_initial_inertia(x_prior, P_prior, k, k_start, start)
+            if wide is not None:
+                post, usable = wide, True
+                self.inertia_resets.append(float(t_s))
         self.events.append((float(t_s), post.nodes, usable, post.dof))
         self.trusted = usable
         self.weak_directions = np.zeros((0, N_ERROR)) if post.weak_directions is None else post.weak_directions
@@ -327,9 +330,9 @@ class _Relinearization:
                 self.anchors.append((k, filt.x.copy(), filt.P.copy()))
         self._keep_output(filt, k)
 
-    def _refit_with_initial_inertia(self, post, usable: bool, x_prior, P_prior, k: int, k_start: int, start, t_s: float):
-        """``(post, usable)``: the failed window refitted with the inertia ratios' prior widened to the filter's initial one
-        (``P_0``'s ``k`` block, uncorrelated with the rest), if that fit passes its tests; else the failed one unchanged."""
+    def _refit_with_initial_inertia(self, x_prior, P_prior, k: int, k_start: int, start):
+        """The failed window refitted with the inertia ratios' prior widened to the filter's initial one (``P_0``'s ``k``
+        block, uncorrelated with the rest), if that fit passes its tests; else None."""
         ks = self.k_states
         P_wide = P_prior.copy()
         P_wide[ks, :] = 0.0
@@ -339,11 +342,8 @@ class _Relinearization:
             alt = posterior(self.model, self.servicer, self.history, x_prior, P_wide, k, self.tau, k_start=k_start, x0_start=start,
                             consider=self.consider, k_states=ks, suspect=self.suspect, Q=self.Q)
         except BatchFitError:
-            return post, usable
-        if not alt.usable:
-            return post, usable
-        self.inertia_resets.append(float(t_s))
-        return alt, True
+            return None
+        return alt if alt.usable else None
 
     def _keep_output(self, filt, k: int) -> None:
         """Keep the filter's output after the fit at step ``k``; forget those older than the bound (bounded memory)."""

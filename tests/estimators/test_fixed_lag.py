@@ -8,11 +8,14 @@ from filterpy.kalman import KalmanFilter
 from scipy.stats import chi2
 
 from estimators.batch import MeasurementHistory, posterior
+from estimators.error_state import boxminus
 from estimators.measurement import LinearMeasurement, PoseNoise
 from estimators.navigation import run_navigation
 from estimators.process_model import LinearProcessModel
+from estimators.state import DK, N_ERROR
 from estimators.tuning import get_tuning
-from studies.sim.navigation import NavigationSetup, consistency_check, initial_guess, simulate_measurements
+from studies.sim.metrics import nees
+from studies.sim.navigation import NavigationSetup, consistency_check, initial_guess, monte_carlo_run, simulate_measurements
 from studies.sim.scenarios import get_scenario
 from studies.sim.truth import simulate_truth
 
@@ -164,7 +167,6 @@ def test_the_window_stays_bounded_when_every_fit_fails():
     from estimators.navigation import MAX_WINDOW_LAGS
     from estimators.state import K_STATES, N_ERROR
     from perception.simulated_pose import simulate_pose_measurements
-    from studies.sim.metrics import nees
     from studies.sim.navigation import dispersed_truth
 
     seed, tuning, pn = 1003, get_tuning("fixed-lag"), PoseNoise()
@@ -187,11 +189,6 @@ def test_a_window_whose_inertia_prior_left_the_data_is_refitted_from_the_initial
     ``k``'s prior widened to ``P_0``'s, windows pass again, ``k`` ends within 3 σ of the truth and the run's NEES/dof over
     its last 300 steps is within the 99.9 % χ² bound of one 14-dof draw per step averaged over 30 independent ones
     (a loose bound: the steps are correlated)."""
-    from estimators.error_state import boxminus
-    from estimators.state import DK, N_ERROR
-    from studies.sim.navigation import monte_carlo_run
-    from studies.sim.metrics import nees
-
     tr = simulate_truth(get_scenario("SC1"), 600.0, 1.0, "perturbed")
     tr_i, run = monte_carlo_run(tr, "ekf", get_tuning("fixed-lag"), 3026, disperse_orbit_phase=True)
     assert run.inertia_resets, "the failing windows were not refitted"
