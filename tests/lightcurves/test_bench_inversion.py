@@ -388,6 +388,33 @@ def test_a_misfitting_search_tilts_its_best_optimum():
     assert B._angle_deg(result.best.pole_I, truth.pole_I) < 1.0
 
 
+@pytest.mark.slow
+def test_a_fit_stopped_between_two_axes_of_one_moment_is_tried_about_the_nearest(atlas):
+    """Five nights of an atlas-centaur spun about −x (the benchmark's schedule index 40, facet draw 33): its transverse axes x
+    and z have one moment, and the search ended with the body axis 7° from z at χ² 775.2 against the truth's 758.3 (commit
+    c4c5c27): the other-axis and half-turned starts were tried on the tempered grid samples, where a χ² difference of 22
+    shrinks below 1, and not about the fit's own nearest axis. Tried on the plain samples, and from the nearest axis
+    (``search._other_axis_fits``, :data:`search.SNAP_MIN_DEG`), the search reaches the truth's optimum (measured χ² 753.1)."""
+    curves, truth, period_range, rng = _benchmark_object(atlas, 33, 40)
+    assert len(curves) == 5 and truth.axis_T[0] == -1.0
+    result = invert(curves, atlas, period_range, rng=rng)
+    assert result.best.chi2 <= profiled_chi2(curves, atlas, truth)[0] + B.DCHI2_MISS
+    assert B._angle_deg(result.best.pole_I, truth.pole_I) < 1.0
+
+
+@pytest.mark.slow
+def test_a_new_best_from_another_axis_is_tried_about_the_others_again():
+    """Three nights of a vespa spun about +y (the benchmark's schedule index 101, facet draw 84): the search's best fit spun
+    about an axis 17° from −y (χ² 545.8), its other-axis starts reached ±x (458.5), and it ended there at χ² 460.8 against
+    the truth's 451.8 (commit c4c5c27): vespa's x and y have one moment, and the starts were not tried again from the new
+    best. They are now (``search._known_shape_optima``): measured χ² 445.8 about +y."""
+    model = KnownShapeModel.from_target(get_target("vespa"))
+    curves, truth, period_range, rng = _benchmark_object(model, 84, 101)
+    assert len(curves) == 3 and truth.axis_T[1] == 1.0
+    result = invert(curves, model, period_range, rng=rng)
+    assert result.best.chi2 <= profiled_chi2(curves, model, truth)[0] + B.DCHI2_MISS
+
+
 def test_the_comb_keeps_an_alias_nearly_as_good_as_the_best():
     """Two nights three days apart of a box-wing (the inversion benchmark's object of schedule index 5): the aliases one and two
     teeth from the truth's fit as well as it (χ² within 2 on the refinement samples), and the search listed six of them but not
