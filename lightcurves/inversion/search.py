@@ -902,8 +902,9 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
         return _half_turned_fits(k[1], k[0], plain) + _other_axis_fits(k[1], k[0], plain, axes_T)
 
     better = [f for found in _each(turned, kept, workers) for f in found]
-    if better and min(better, key=lambda f: f[0])[0] < kept[0][0]:  # a new best: its own axis may be tilted, or its twins lower
-        better += turned(min(better, key=lambda f: f[0]))
+    new_best = min(better, key=lambda f: f[0], default=None)
+    if new_best is not None and new_best[0] < kept[0][0]:  # a new best: its own axis may be tilted, or its twins lower
+        better += turned(new_best)
     return _distinct_within_reach(coarse + comb + better, n_free) if better else kept
 
 
