@@ -85,6 +85,26 @@ def chosen_studies() -> list[str]:
     return names
 
 
+def earlier_subsections(names: list[str], text: str) -> list[str]:
+    """The subsections (``### `study` …``) of this benchmark's section in the RESULTS.md ``text`` for the studies of
+    :data:`STUDIES` not in ``names``, each headed by the date line of the run that measured it: a run of some studies keeps
+    the others' last results (:data:`ONLY_ENV`)."""
+    section = re.search(r"<!-- bench:studies_perturbed -->\n(.*?)<!-- /bench:studies_perturbed -->", text, re.S)
+    if section is None:
+        return []
+    body = section.group(1)
+    stamp = re.match(r"(_Measured [^\n]*_)", body)
+    out = []
+    for name in (n for n in STUDIES if n not in names):
+        sub = re.search(rf"^### `{name}` .*?(?=^### |\Z)", body, re.S | re.M)
+        if sub is not None:
+            head, _, rest = sub.group(0).rstrip().partition("\n\n")
+            if stamp is not None and not rest.startswith("_Measured"):
+                rest = f"{stamp.group(1)}\n\n{rest}"
+            out += ["", f"{head}\n\n{rest}"]
+    return out
+
+
 def run() -> str:
     n_seeds = int(os.environ.get(SEEDS_ENV, "20"))
     names = chosen_studies()
@@ -93,7 +113,8 @@ def run() -> str:
              "(no truth reaches it). Medians over seeds (a convergence time never reached is +∞); paired change = with − without on the "
              "same measurements, mean and 95 % t interval over the seeds where both arms are finite; 'lower' counts those seeds where "
              "the arm lowered the metric." + ("" if len(names) == len(STUDIES) else
-                                              f" Only {', '.join(f'`{n}`' for n in names)} run this time (`{ONLY_ENV}`).")]
+                                              f" Only {', '.join(f'`{n}`' for n in names)} run this time (`{ONLY_ENV}`); the others' "
+                                              "results are those of their last run, with its date.")]
     with tempfile.TemporaryDirectory(prefix="lcnav-bench-studies-perturbed-") as tmp:
         for name in names:
             arm, metrics = STUDIES[name]
@@ -107,4 +128,5 @@ def run() -> str:
                 parts += [line, ""]
             parts += [f"| filter | metric | median without | median with {arm} | finite without / with | paired change [95 % CI] | seeds | lower |",
                       "|---|---|---|---|---|---|---|---|", *paired_rows(res.runs, arm, metrics)]
-    return "\n".join(parts)
+    results = Path(__file__).resolve().parent / "RESULTS.md"
+    return "\n".join(parts + earlier_subsections(names, results.read_text() if results.exists() else ""))

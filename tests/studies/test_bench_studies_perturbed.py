@@ -62,3 +62,17 @@ def test_the_prior_line_reports_the_first_run_with_a_prior():
     line = B.prior_line(runs)
     assert "pole 0.12° off" in line and "sense right (probability 1.00), 1 mode(s)" in line and "49.2 mrad/s off" in line
     assert B.prior_line(runs.iloc[:1]) == "" and B.prior_line(pd.DataFrame({"x": [1]})) == ""
+
+
+def test_a_run_of_some_studies_keeps_the_others_last_results_with_their_date():
+    """Run with ``$LCNAV_BENCH_STUDIES_ONLY=proxy``, the section must still hold the init study's last table, headed by the
+    date line of the run that measured it (a proxy-only run on 2026-12-01 had replaced it whole)."""
+    text = ("<!-- bench:other -->\nx\n<!-- /bench:other -->\n<!-- bench:studies_perturbed -->\n_Measured 2026-11-29 on M._\n\n"
+            "## Init and proxy\n\nintro\n\n### `init` (40 runs, 856 s wall)\n\n| a |\n|---|\n| 1 |\n\n### `proxy` (40 runs)\n\n| b |\n"
+            "<!-- /bench:studies_perturbed -->\n")
+    kept = B.earlier_subsections(["proxy"], text)
+    assert kept == ["", "### `init` (40 runs, 856 s wall)\n\n_Measured 2026-11-29 on M._\n\n| a |\n|---|\n| 1 |"]
+    assert B.earlier_subsections(["proxy"], "\n".join(["", *kept])) == []  # no section: nothing to keep
+    again = B.earlier_subsections(["proxy"], text.replace("### `init` (40 runs, 856 s wall)\n\n", "### `init` (40 runs, 856 s wall)\n\n_Measured 2026-11-28._\n\n"))
+    assert again[1].count("_Measured") == 1 and "2026-11-28" in again[1]  # a kept subsection keeps its own date
+    assert B.earlier_subsections(list(B.STUDIES), text) == []
