@@ -551,7 +551,13 @@ def _alias_phase_shift(data: _Data, d_omega: float) -> float:
     return float(-np.angle(np.sum(counts[counts > 0] * np.exp(1j * d_omega * _mid_times(data)))))
 
 
-def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int) -> list[tuple[float, _Problem]]:
+#: the rates the retry of a misfit search (:func:`_retried_optima`) tries between two teeth of :func:`_alias_trials`' comb: at
+#: k/SUB_TEETH of a tooth from the first fit, k = 1 … SUB_TEETH − 1
+SUB_TEETH = 4
+
+
+def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axes_T, n_periods: int, n_aliases: int, sub_teeth: int = 1
+                  ) -> list[tuple[float, _Problem]]:
     """The ``n_periods`` best fits (χ², problem) of the screen's model on its samples ``grid`` at one screened pole of a known
     shape, over its period aliases; :func:`invert` fits those within reach of the best of all poles with the full model.
 
@@ -570,6 +576,13 @@ def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axe
     night's phase, which the screen sees). (SC3 seed 1: one start per pole ended on an alias 0.6 % off with χ² 9.4e4 vs
     5.9e4. A two-night atlas-centaur object of ``benchmarks/bench_inversion.py``, 61 teeth: the screen's row minima at the
     candidate pole left out n = −4 … 4 about the truth, and the search ended on n = 5, χ² 2342 against the truth's 318.5.)
+    The comb keeps the nights' relative phase of the first fit, which the screen's model can get wrong. With ``sub_teeth``
+    > 1 (the retry of a misfit search, :func:`_retried_optima`), the rates 1/sub_teeth … of a tooth from the first fit
+    (relative phases a quarter, a half, three quarters of a turn apart with 4) are fitted briefly too before the comb, and
+    the comb walks from the best of them (a two-night box-wing of the benchmark, schedule index 152: the first fit 0.09
+    cycles/day, 94° of relative phase, off every tooth of the truth's comb; the search ended 94° off at χ² 12620 against the
+    truth's 284). Not on the first search: on a two-night vespa of the development draws (seed 9013) the comb from a
+    sub-tooth left out the optimum that the first fit's comb reached (χ² 253.4 against 251.4) and the search took 4× the CPU.
     """
     iw = int(np.argmin(row))
     start = pole_frame(pole_I) @ Rotation.from_rotvec([0.0, 0.0, phase_rad[iw]]).as_matrix()
@@ -590,6 +603,12 @@ def _alias_trials(grid: _Data, screen_model, pole_I, omegas, row, phase_rad, axe
 
     mids = _mid_times(grid)
     spacing = 2 * np.pi / max(np.ptp(mids), 1e-9)
+    if np.ptp(mids) > 0:
+        for q in range(1, sub_teeth):
+            trial(first.omega0 + spacing * q / sub_teeth)
+        chi2_sub, fit_sub = min(trials, key=lambda t: t[0])
+        if chi2_sub < chi2:
+            chi2, first = chi2_sub, fit_sub
     n = np.arange(np.ceil((omegas[0] - first.omega0) / spacing), np.floor((omegas[-1] - first.omega0) / spacing) + 1)
     teeth = first.omega0 + spacing * n[n != 0] if np.ptp(mids) > 0 else np.zeros(0)
     if teeth.size:
@@ -778,6 +797,23 @@ def _other_axis_fits(fit: _Problem, chi2: float, grid: _Data, axes_T: np.ndarray
     return _lower_from(fit, chi2, grid, [(_best_phase(grid, fit.model, fit.C_IP0, fit.omega0, C_TA), fit.omega0, C_TA) for C_TA in frames])
 
 
+def _reversed_sense_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from the fit's spin reversed, if it ends lower than ``chi2`` by more than 1
+    (:func:`_lower_from`): the pole turned to its antipode and the body axis with it (the axis keeps its direction in space,
+    the body turns the other way), at the best phase about it on the grid samples (:func:`_best_phase`) and the same rate.
+
+    The two senses differ only through the body's asymmetry under time reversal and the bisector's drift, so the screen's
+    coarse copy cannot rank them, and no fit turns the pole by 180°. On a four-night atlas-centaur of
+    ``benchmarks/bench_inversion.py`` (schedule index 194, spin about −y) the search ended at the reversed spin (pole 180.0°
+    off, about +y) at χ² 607.7 against the truth's 593.4; reversed, the fit reaches the truth's pole (0.01°) at χ² 603.3, on
+    a cycle-count alias 1.2 % off in period: the reversal moves each night's phase by twice the bisector's azimuth there,
+    and the comb's teeth from it, evaluated unfitted, did not rank the truth's (flat within 6 over 328 rates).
+    """
+    flipped = fit.C_IP0 @ Rotation.from_rotvec([np.pi, 0.0, 0.0]).as_matrix()  # pole → −pole
+    C_TA = axis_frame(-fit.C_TA0[:, 2])
+    return _lower_from(fit, chi2, grid, [(_best_phase(grid, fit.model, flipped, fit.omega0, C_TA), fit.omega0, C_TA)])
+
+
 #: teeth of the cycle-count comb at the best optimum fitted briefly (:func:`_comb_fits`), the best-ranked by the full model
 COMB_TEETH = 8
 #: Δχ² (scaled as :data:`REFINE_REACH`) above the best optimum within which a tooth's fit is kept as an optimum of its own
@@ -855,10 +891,17 @@ def _rescreen_fits(fit: _Problem, chi2: float, plain: _Data, omegas: np.ndarray,
 #: the tilts of :func:`_tilted_fits`: radii (deg) about the best optimum's pole, and directions per radius
 TILT_RADII_DEG = (3.0, 6.0)
 TILT_AZIMUTHS = 8
+#: the tilts of a search still misfit after its retry (:func:`_retried_optima`): radii (deg) about each of the
+#: ``WIDE_TILT_OPTIMA`` lowest distinct subsample fits of both screens. On a one-night box-wing of
+#: ``benchmarks/bench_inversion.py`` (schedule index 170, spin about the major axis) the best candidates stopped 24–29° from
+#: the truth (χ² 646–714 on the refinement samples against the truth's 146: a glint's local minima), out of reach of the
+#: best (χ² 380, 158° off), where the truth's basin reaches ≥ 10° in tilt; tilted by 8–24° they reached it (0.6° off).
+WIDE_TILT_RADII_DEG = (8.0, 16.0, 24.0)
+WIDE_TILT_OPTIMA = 8
 
 
-def _tilted_fits(fit: _Problem, chi2: float, plain: _Data) -> list[tuple[float, _Problem]]:
-    """(χ², fit) on the fit's own samples from the best of the fit's frame tilted by :data:`TILT_RADII_DEG` toward
+def _tilted_fits(fit: _Problem, chi2: float, plain: _Data, radii_deg: tuple = TILT_RADII_DEG) -> list[tuple[float, _Problem]]:
+    """(χ², fit) on the fit's own samples from the best of the fit's frame tilted by ``radii_deg`` toward
     :data:`TILT_AZIMUTHS` directions (rate and body axis kept), if it ends lower by more than 1 (:func:`_lower_from`).
 
     A least-squares fit stops where the χ² surface has a local minimum, and a glinting shape's surface has them a few
@@ -868,7 +911,7 @@ def _tilted_fits(fit: _Problem, chi2: float, plain: _Data) -> list[tuple[float, 
     (χ² 383.6, pole 0.0°).
     """
     starts = []
-    for r in np.radians(TILT_RADII_DEG):
+    for r in np.radians(radii_deg):
         for a in np.arange(TILT_AZIMUTHS) * 2 * np.pi / TILT_AZIMUTHS:
             u = fit.C_IP0 @ np.array([np.cos(a), np.sin(a), 0.0])
             starts.append((Rotation.from_rotvec(r * u).as_matrix() @ fit.C_IP0, fit.omega0, fit.C_TA0))
@@ -881,7 +924,8 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
     ``rescreen`` the best optimum tilted (:func:`_tilted_fits`) and the rescreen at the (new) best's pole
     (:func:`_rescreen_fits`), the cycle-count aliases of the (new) best
     ranked by the full model (:func:`_comb_fits`), then at each optimum the body turned over (a near-symmetric shape's other
-    axis sign) and the other principal axes; the distinct optima within reach, best first. Every stage here tries its starts
+    axis sign), the other principal axes and the spin reversed (:func:`_reversed_sense_fits`); the distinct optima within
+    reach, best first. Every stage here tries its starts
     on the grid samples ``plain``, not tempered: the screening tolerance (:data:`SCREEN_REL_ERROR`, 0.1) shrinks a χ²
     difference of tens to less than the one :func:`_lower_from` asks for, so with the tempered samples (before
     2026-11-30) the other-axis and half-turned starts of schedule index 40 of the benchmark never passed (the fix found
@@ -899,7 +943,7 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
     if comb:
         kept = _distinct_within_reach(coarse + comb, n_free)
     def turned(k: tuple[float, _Problem]) -> list[tuple[float, _Problem]]:
-        return _half_turned_fits(k[1], k[0], plain) + _other_axis_fits(k[1], k[0], plain, axes_T)
+        return _half_turned_fits(k[1], k[0], plain) + _other_axis_fits(k[1], k[0], plain, axes_T) + _reversed_sense_fits(k[1], k[0], plain)
 
     better = [f for found in _each(turned, kept, workers) for f in found]
     new_best = min(better, key=lambda f: f[0], default=None)
@@ -909,11 +953,12 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
 
 
 def _candidate_fits(grid: _Data, sub: _Data, model, screen_model, poles: np.ndarray, chi2_grid: np.ndarray, screen: PhaseScreen | None,
-                    omegas: np.ndarray, axes: np.ndarray, counts: tuple[int, int, int], workers: int, step: Callable[[], None]
-                    ) -> list[tuple[float, _Problem]]:
+                    omegas: np.ndarray, axes: np.ndarray, counts: tuple[int, int, int], workers: int, step: Callable[[], None],
+                    sub_teeth: int = 1) -> list[tuple[float, _Problem]]:
     """Step 2's fits (χ², fit) on the refinement subsample ``sub`` from the best local minima of one screen's pole map
     (``chi2_grid`` (n_pole, n_ω) over ``poles``; ``screen`` its known-shape phases and axes, None for a convex model);
-    ``counts`` = (candidates, periods per pole, aliases) of :func:`invert`; ``step()`` after each candidate pole."""
+    ``counts`` = (candidates, periods per pole, aliases) of :func:`invert`; ``step()`` after each candidate pole; ``sub_teeth`` of
+    :func:`_alias_trials`."""
     n_candidates, n_periods, n_aliases = counts
     chi2_map = chi2_grid.min(axis=1)
     known = screen is not None
@@ -923,7 +968,7 @@ def _candidate_fits(grid: _Data, sub: _Data, model, screen_model, poles: np.ndar
     def candidate(ip: int) -> list[tuple[float, _Problem]]:
         if known:
             return _alias_trials(grid, screen_model, poles[ip], omegas, chi2_grid[ip], screen.phase_rad[ip], axes[screen.axis_index[ip]],
-                                 n_periods, n_aliases)
+                                 n_periods, n_aliases, sub_teeth)
         return [_fit(_Problem(sub, model, pole_frame(poles[ip]), omegas[iw], np.eye(3), False, False), 180)[::-1]
                 for iw in _period_minima(chi2_grid[ip], n_periods)]
 
@@ -958,14 +1003,28 @@ def _misfit(kept: list[tuple[float, _Problem]], n_free: int) -> float:
 
 
 def _retried_optima(kept: list[tuple[float, _Problem]], plain: _Data, sub: _Data, model, screen_model, lattice_grid: tuple,
-                    counts: tuple[int, int, int], n_free: int, workers: int, screen_progress, step) -> list[tuple[float, _Problem]]:
+                    counts: tuple[int, int, int], n_free: int, workers: int, screen_progress, step, first: tuple) -> list[tuple[float, _Problem]]:
     """The known-shape search again from a screen at :data:`RETRY_REL_ERROR` (:data:`RETRY_CHI2_DOF`): its candidates'
-    subsample fits and ``kept`` together through :func:`_known_shape_optima`. ``lattice_grid`` = (pole lattice, its turn,
-    body axes, rates, phases) of :func:`invert`; ``screen_progress(fraction)`` over the screen, ``step()`` per candidate pole."""
+    subsample fits, those of the first screen ``first`` = (its grid samples, poles, χ² (n_pole, n_ω), :class:`PhaseScreen`)
+    again, both with the rates between the comb's teeth (:data:`SUB_TEETH`), and ``kept``, together through
+    :func:`_known_shape_optima`. ``lattice_grid`` = (pole lattice, its turn, body axes, rates, phases) of :func:`invert`;
+    ``screen_progress(fraction)`` over the screen, ``step()`` per candidate pole."""
     lattice, turn, axes, omegas, n_phases = lattice_grid
     grid = _tempered(plain, RETRY_REL_ERROR)
     poles, screen = _known_screen(grid, screen_model, lattice, turn, axes, omegas, n_phases, 2 * counts[0], screen_progress)
-    coarse = kept + _candidate_fits(grid, sub, model, screen_model, poles, screen.chi2, screen, omegas, axes, counts, workers, step)
+    coarse = kept + [c for g, p, chi2_grid, sc in ((grid, poles, screen.chi2, screen), first)
+                     for c in _candidate_fits(g, sub, model, screen_model, p, chi2_grid, sc, omegas, axes, counts, workers, step, SUB_TEETH)]
+    kept = _known_shape_optima(coarse, _distinct_within_reach(coarse, n_free), plain, omegas, axes, n_phases, n_free, workers, rescreen=True)
+    if _misfit(kept, n_free) <= RETRY_CHI2_DOF:
+        return kept
+    distinct: list[tuple[float, _Problem]] = []
+    for chi2, fit in sorted(coarse, key=lambda c: c[0]):
+        if not any(_same_optimum(fit, d) for _, d in distinct):
+            distinct.append((chi2, fit))
+    wide = [f for found in _each(lambda c: _tilted_fits(c[1], c[0], plain, WIDE_TILT_RADII_DEG), distinct[:WIDE_TILT_OPTIMA], workers) for f in found]
+    if not wide or min(f[0] for f in wide) >= kept[0][0]:
+        return kept
+    coarse += wide
     return _known_shape_optima(coarse, _distinct_within_reach(coarse, n_free), plain, omegas, axes, n_phases, n_free, workers, rescreen=True)
 
 
@@ -1108,11 +1167,12 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         if _misfit(kept, n_free) > RETRY_CHI2_DOF:
             kept = _known_shape_optima(kept, kept, plain, omegas, axes, n_phases, n_free, workers, rescreen=True)
         if screen_rel_error != RETRY_REL_ERROR and _misfit(kept, n_free) > RETRY_CHI2_DOF:
-            n_total += omegas.size + n_candidates * n_periods_per_pole
+            n_total += omegas.size + 2 * n_candidates * n_periods_per_pole
             base = done[0]
             done[0] += omegas.size
             kept = _retried_optima(kept, plain, sub, model, screen_model, (lattice, turn, axes, omegas, n_phases), counts, n_free, workers,
-                                   None if progress is None else (lambda f: progress(base + round(f * omegas.size), n_total)), step)
+                                   None if progress is None else (lambda f: progress(base + round(f * omegas.size), n_total)), step,
+                                   (grid, poles, chi2_grid, screen))
     kept = [fit for _, fit in kept]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
     if progress is not None and done[0] < n_total:  # fewer local minima than n_candidates: the bar still ends full
