@@ -73,6 +73,7 @@ def test_a_run_of_some_studies_keeps_the_others_last_results_with_their_date():
     kept = B.earlier_subsections(["proxy"], text)
     assert kept == ["", "### `init` (40 runs, 856 s wall)\n\n_Measured 2026-11-29 on M._\n\n| a |\n|---|\n| 1 |"]
     assert B.earlier_subsections(["proxy"], "\n".join(["", *kept])) == []  # no section: nothing to keep
-    again = B.earlier_subsections(["proxy"], text.replace("### `init` (40 runs, 856 s wall)\n\n", "### `init` (40 runs, 856 s wall)\n\n_Measured 2026-11-28._\n\n"))
+    dated = text.replace("### `init` (40 runs, 856 s wall)\n\n", "### `init` (40 runs, 856 s wall)\n\n_Measured 2026-11-28._\n\n")
+    again = B.earlier_subsections(["proxy"], dated)
     assert again[1].count("_Measured") == 1 and "2026-11-28" in again[1]  # a kept subsection keeps its own date
     assert B.earlier_subsections(list(B.STUDIES), text) == []
