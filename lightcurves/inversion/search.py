@@ -805,9 +805,11 @@ def _reversed_sense_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[
     The two senses differ only through the body's asymmetry under time reversal and the bisector's drift, so the screen's
     coarse copy cannot rank them, and no fit turns the pole by 180°. On a four-night atlas-centaur of
     ``benchmarks/bench_inversion.py`` (schedule index 194, spin about −y) the search ended at the reversed spin (pole 180.0°
-    off, about +y) at χ² 607.7 against the truth's 593.4; reversed, the fit reaches the truth's pole (0.01°) at χ² 603.3, on
-    a cycle-count alias 1.2 % off in period: the reversal moves each night's phase by twice the bisector's azimuth there,
-    and the comb's teeth from it, evaluated unfitted, did not rank the truth's (flat within 6 over 328 rates).
+    off, about +y) at χ² 607.7 against the truth's 593.4; reversed (at the best, and again at the new best the
+    reversal leads to), the search reaches the truth's optimum (593.9, 0.01°; which later start got there was not traced).
+    The reversal moves each night's phase by twice the bisector's azimuth there, so a reversed start can land on a
+    cycle-count alias (1.2 % off in period at 603.3 with the reversal at every kept optimum); the comb of the reversed start
+    itself, evaluated unfitted, is flat (within 6 over 328 rates) and is not walked.
     """
     flipped = fit.C_IP0 @ Rotation.from_rotvec([np.pi, 0.0, 0.0]).as_matrix()  # pole → −pole
     C_TA = axis_frame(-fit.C_TA0[:, 2])
@@ -924,8 +926,9 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
     ``rescreen`` the best optimum tilted (:func:`_tilted_fits`) and the rescreen at the (new) best's pole
     (:func:`_rescreen_fits`), the cycle-count aliases of the (new) best
     ranked by the full model (:func:`_comb_fits`), then at each optimum the body turned over (a near-symmetric shape's other
-    axis sign), the other principal axes and the spin reversed (:func:`_reversed_sense_fits`); the distinct optima within
-    reach, best first. Every stage here tries its starts
+    axis sign) and the other principal axes, and at the best (and at a new best) the spin reversed
+    (:func:`_reversed_sense_fits`; at every optimum it cost the benchmark's 3 × 600-sample atlas-centaurs with 11 and 25
+    modes 38 % and 16 % more time); the distinct optima within reach, best first. Every stage here tries its starts
     on the grid samples ``plain``, not tempered: the screening tolerance (:data:`SCREEN_REL_ERROR`, 0.1) shrinks a χ²
     difference of tens to less than the one :func:`_lower_from` asks for, so with the tempered samples (before
     2026-11-30) the other-axis and half-turned starts of schedule index 40 of the benchmark never passed (the fix found
@@ -943,12 +946,12 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
     if comb:
         kept = _distinct_within_reach(coarse + comb, n_free)
     def turned(k: tuple[float, _Problem]) -> list[tuple[float, _Problem]]:
-        return _half_turned_fits(k[1], k[0], plain) + _other_axis_fits(k[1], k[0], plain, axes_T) + _reversed_sense_fits(k[1], k[0], plain)
+        return _half_turned_fits(k[1], k[0], plain) + _other_axis_fits(k[1], k[0], plain, axes_T)
 
-    better = [f for found in _each(turned, kept, workers) for f in found]
+    better = [f for found in _each(turned, kept, workers) for f in found] + _reversed_sense_fits(kept[0][1], kept[0][0], plain)
     new_best = min(better, key=lambda f: f[0], default=None)
     if new_best is not None and new_best[0] < kept[0][0]:  # a new best: its own axis may be tilted, or its twins lower
-        better += turned(new_best)
+        better += turned(new_best) + _reversed_sense_fits(new_best[1], new_best[0], plain)
     return _distinct_within_reach(coarse + comb + better, n_free) if better else kept
 
 

@@ -447,9 +447,9 @@ def test_the_reversed_spin_of_an_optimum_is_tried(atlas):
     """Four nights of an atlas-centaur spun about −y (the benchmark's schedule index 194, facet draw 163): the search listed
     one mode, the reversed spin (pole 180.0° from the truth's, about +y) at χ² 607.7 against the truth's 593.4 (commit
     c3fac9e), so the truth's pole lay in no region. Its spin reversed (``search._reversed_sense_fits``) reaches the truth's
-    pole: both senses are listed, and the truth's pole is inside the mixture's 95 % region (measured: the reversed spin at
-    χ² 599.2, probability 0.85, and a mode 0.01° from the truth's pole about −y at 603.3, 0.15; the mixture's level at the
-    truth 0.70, before 1.0)."""
+    pole: both senses are listed, and the truth's pole is inside the mixture's 95 % region (measured: the best mode 0.01°
+    from the truth's pole about −y at χ² 593.9, probability 0.47, the reversed spin at 597.8, 0.06; the mixture's level at
+    the truth 0.03, before 1.0)."""
     curves, truth, result = _searched(atlas, 163, 194)
     assert len(curves) == 4 and truth.axis_T[1] == -1.0
     errors = [B._angle_deg(s.pole_I, truth.pole_I) for s in result.solutions]
