@@ -696,14 +696,18 @@ def _look_alike_fit(chi2: float, fit: _Problem) -> tuple[float, _Problem]:
     return (c, turned) if c < chi2 else (chi2, fit)
 
 
-def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tuple[float, _Problem]]:
-    """The (χ², fit) pairs within :data:`REFINE_REACH` of the best, one per optimum (several starts reach one optimum:
-    polish it once), best first."""
+def _distinct(ranked: list[tuple[float, _Problem]]) -> list[tuple[float, _Problem]]:
+    """The first (χ², fit) pair of each optimum among ``ranked`` (several starts reach one optimum), in their order."""
     kept: list[tuple[float, _Problem]] = []
-    for chi2, fit in _within_reach(coarse, n_free):
+    for chi2, fit in ranked:
         if not any(_same_optimum(fit, k) for _, k in kept):
             kept.append((chi2, fit))
     return kept
+
+
+def _distinct_within_reach(coarse: list[tuple[float, _Problem]], n_free: int) -> list[tuple[float, _Problem]]:
+    """The (χ², fit) pairs within :data:`REFINE_REACH` of the best, one per optimum (polish it once), best first."""
+    return _distinct(_within_reach(coarse, n_free))
 
 
 def _half_turns(C_TA: np.ndarray) -> list[np.ndarray]:
@@ -1020,11 +1024,8 @@ def _retried_optima(kept: list[tuple[float, _Problem]], plain: _Data, sub: _Data
     kept = _known_shape_optima(coarse, _distinct_within_reach(coarse, n_free), plain, omegas, axes, n_phases, n_free, workers, rescreen=True)
     if _misfit(kept, n_free) <= RETRY_CHI2_DOF:
         return kept
-    distinct: list[tuple[float, _Problem]] = []
-    for chi2, fit in sorted(coarse, key=lambda c: c[0]):
-        if not any(_same_optimum(fit, d) for _, d in distinct):
-            distinct.append((chi2, fit))
-    wide = [f for found in _each(lambda c: _tilted_fits(c[1], c[0], plain, WIDE_TILT_RADII_DEG), distinct[:WIDE_TILT_OPTIMA], workers) for f in found]
+    distinct = _distinct(sorted(coarse, key=lambda c: c[0]))[:WIDE_TILT_OPTIMA]
+    wide = [f for found in _each(lambda c: _tilted_fits(c[1], c[0], plain, WIDE_TILT_RADII_DEG), distinct, workers) for f in found]
     if not wide or min(f[0] for f in wide) >= kept[0][0]:
         return kept
     coarse += wide
