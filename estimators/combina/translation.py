@@ -4,7 +4,10 @@ State ``x_s = [r, v]`` of the target's centre of mass relative to the chaser,
 in the chaser's LVLH frame ``L`` (x radial, y along-track, z orbit normal).
 Process model: the nonlinear equations of relative motion (eq. 9,
 :func:`estimators.dynamics.nerm_rhs`) about the chaser's circular orbit of
-radius ``R_t``; measurement: the position ``r`` (eq. 14).
+radius ``R_t`` (the paper's); in orbit, given the chaser's own orbit, the relative motion
+about it with J2 (:class:`estimators.combina.own_orbit.ChaserOrbit`, beyond the paper: eq. 9 leaves
+out of the perturbed truth a J2 signal whose size depends on the orbit phase); measurement:
+the position ``r`` (eq. 14).
 
 The public interface is SI (m, m/s, s, m², ...). With ``units=ScaledUnits(...)``
 the filter runs internally in the paper's scaled units (§VI: time in
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from estimators.combina.own_orbit import ChaserOrbit
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
 from estimators.process_noise import MatchedBudget, white_noise_acceleration
@@ -53,8 +57,8 @@ SI_UNITS = ScaledUnits(TU_s=1.0, LU_m=1.0)
 def translational_process_noise(dt_s: float, budget: MatchedBudget) -> np.ndarray:
     """``Q`` (6×6, SI) over ``[r_L, v_L]`` for one prediction of ``dt_s`` s from the disturbance budget.
 
-    Eq. 9 is the two-body relative motion about a circular reference orbit; what it leaves out (differential J2 and drag,
-    and the chaser's own J2-perturbed orbit, which moves the LVLH frame off the circular one) enters as the
+    What the filter's model leaves out (in orbit, about the chaser's own orbit with J2: the differential drag; eq. 9 about
+    a circular reference orbit leaves out J2 as well, on the chaser's orbit and across the separation) enters as the
     white-noise-acceleration model of :mod:`estimators.process_noise` (its eq. 1) with the budget's matched intensity
     ``q = budget.q_a_m2_s3`` per LVLH axis (its eq. 3: the white noise that gives the steady-state filter the velocity-error
     variance the unmodelled acceleration's spectrum gives it, :func:`studies.sim.matched_noise.combina_matched_budget`):
@@ -85,10 +89,16 @@ class TranslationalUKF:
     Q : (6, 6) SI or callable, optional
         additive process noise per prediction, or ``Q(dt_s)`` (e.g. :func:`translational_process_noise`
         with a budget); the paper uses none.
+    orbit : ChaserOrbit, optional
+        the chaser's own orbit: the states are then propagated about it
+        (:meth:`~estimators.combina.own_orbit.ChaserOrbit.propagate_relative`) instead of by eq. 9.
+    t0_s : float
+        the time of ``x0_L`` on the orbit's clock (s); each prediction advances it.
     """
 
     def __init__(self, x0_L, P0, *, n_rad_s: float, R_t_m: float, mu: float = MU_EARTH, units: ScaledUnits = SI_UNITS,
-                 max_step_s: float = 10.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+                 max_step_s: float = 10.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0,
+                 orbit: ChaserOrbit | None = None, t0_s: float = 0.0):
         for name, v in (("n_rad_s", n_rad_s), ("R_t_m", R_t_m), ("max_step_s", max_step_s)):
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be positive and finite, got {v!r}")
@@ -100,6 +110,10 @@ class TranslationalUKF:
         self._mu = mu * units.TU_s**2 / units.LU_m**3
         self._max_step = max_step_s / units.TU_s
         self._Q = Q if Q is None or callable(Q) else np.asarray(Q, dtype=float)
+        if not np.isfinite(t0_s):
+            raise ValueError(f"t0_s must be finite, got {t0_s!r}")
+        self.orbit = orbit
+        self.t_s = float(t0_s)
         self.core = UnscentedCore(np.asarray(x0_L, dtype=float) / self._d, np.asarray(P0, dtype=float) / D, alpha=alpha, beta=beta, kappa=kappa)
 
     # ---- SI views of the internal state
@@ -114,6 +128,8 @@ class TranslationalUKF:
         return self.core.P * np.outer(self._d, self._d)
 
     def _propagate(self, X: np.ndarray, dt: float) -> np.ndarray:
+        if self.orbit is not None:
+            return self.orbit.propagate_relative(X * self._d, self.t_s, dt * self.units.TU_s) / self._d
         n_sub = max(1, int(np.ceil(abs(dt) / self._max_step)))
         h = dt / n_sub
         for _ in range(n_sub):
@@ -127,6 +143,7 @@ class TranslationalUKF:
         dt = dt_s / self.units.TU_s
         Q = self._Q(dt_s) if callable(self._Q) else self._Q
         self.core.predict(lambda X: self._propagate(X, dt), Q=None if Q is None else Q / np.outer(self._d, self._d))
+        self.t_s += dt_s
 
     def innovation(self, r_meas_L, R_m2) -> Innovation:
         """Eqs 14–17, 23 for a measured position ``r_meas_L`` (m) with covariance ``R_m2`` (m²).

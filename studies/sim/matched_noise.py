@@ -167,23 +167,29 @@ COMBINA_ORBITS = 2.0
 def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "perturbed", orbits: float = COMBINA_ORBITS) -> tuple:
     """``(τ, a_L (n, 3) m/s², α_T (n, 3) rad/s²)``: the one-step errors of CoMBiNa's process models along ``target``'s truth.
 
-    At the closed loop's step ``τ`` (:class:`studies.sim.combina.CombinaConfig`'s rate): ``a_L`` is what eq. 9 (RK4, as the
-    translational filter integrates it) leaves out of the LVLH relative velocity, ``α_T`` what eq. 29 with the target's own
+    At the closed loop's step ``τ`` (:class:`studies.sim.combina.CombinaConfig`'s rate): ``a_L`` is what the translational
+    filter's model in that world (:func:`studies.sim.combina.chaser_orbit`: eq. 9 in the torque-free world, the relative motion
+    about the chaser's own orbit with J2 in orbit; integrated as the filter does) leaves out of the LVLH relative velocity,
+    ``α_T`` what eq. 29 with the target's own
     inertia ratios (:func:`estimators.combina.attitude.propagate_rigid_body`, as the attitude filter integrates it) leaves out
     of the body rate, each per unit time. On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
     rad/s²); on the perturbed one, gravity gradient, J2, drag and damping.
     """
     from estimators.combina.attitude import propagate_rigid_body
     from estimators.dynamics import MU_EARTH, nerm_rhs, rk4_step
-    from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, simulate_lvlh_truth, target_k
+    from studies.sim.combina import N_RAD_S, R_T_M, TU, CombinaConfig, chaser_orbit, simulate_lvlh_truth, target_k
 
     tau = 1.0 / CombinaConfig().rate_hz
     n = int(np.floor(orbits * 2.0 * np.pi * TU / tau))
     tr = simulate_lvlh_truth(target, n * tau, tau, k=target_k(target), physics=physics, arg_latitude_rad=arg_latitude_rad)
     X = np.concatenate([tr.r_L, tr.v_L], axis=1)
-    Y = X[:-1]
-    for _ in range(int(np.ceil(tau / 10.0))):  # the filter's largest RK4 step, 10 s
-        Y = rk4_step(nerm_rhs, 0.0, Y, tau / np.ceil(tau / 10.0), N_RAD_S, R_T_M, MU_EARTH)
+    orbit = chaser_orbit(physics, tr)
+    if orbit is None:
+        Y = X[:-1]
+        for _ in range(int(np.ceil(tau / 10.0))):  # the filter's largest RK4 step, 10 s
+            Y = rk4_step(nerm_rhs, 0.0, Y, tau / np.ceil(tau / 10.0), N_RAD_S, R_T_M, MU_EARTH)
+    else:
+        Y = np.array([orbit.propagate_relative(x, t, tau) for x, t in zip(X[:-1], tr.t[:-1])])
     Z = np.concatenate([tr.q_IT, tr.w_T, np.broadcast_to(tr.k, (tr.t.size, 2))], axis=1)
     W = propagate_rigid_body(Z[:-1], tau)
     return tau, (X[1:, 3:] - Y[:, 3:]) / tau, (Z[1:, 4:7] - W[:, 4:7]) / tau
