@@ -211,10 +211,14 @@ def test_rocket_body_filters_hold_their_band_over_two_tu_of_the_perturbed_truth(
     assert band["translation"][0] >= 0.85 and band["axisymmetric"][0] >= 0.85, band  # the attitude filter is replaced at the symmetry switch
 
 
-def test_budgeted_filters_are_not_over_confident_on_the_torque_free_truth(asym):
-    """On the torque-free truth the budget covers disturbances that are not there: conservative (measured on 30 seeds: 26 % of
-    the attitude filter's steps below the band), never over-confident: ≤ 5 % of the steps above the band."""
+def test_filters_on_the_torque_free_truth_consistent_or_conservative(asym):
+    """On the torque-free truth eq. 9 is the truth's relative motion and the translational filter has no process noise: its
+    per-step NEES lies in its 95 % band on ≥ 92 % of the steps (measured 95.8 %; 89 % while it carried the perturbed budget's
+    noise, which it had nothing to cover). The attitude filter keeps the gravity gradient's budget, which covers a torque that
+    is not there: conservative (measured on 30 seeds: 26 % of the steps below the band), never over-confident: ≤ 5 % of the
+    steps above the band, as for the translation."""
     band = _nees_in_band([run for run, _ in asym])
+    assert band["translation"][0] >= 0.92, band
     assert band["translation"][1] <= 0.05 and band["attitude"][1] <= 0.05, band
 
 
