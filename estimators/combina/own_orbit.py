@@ -13,7 +13,7 @@ gravity 2.2e-12; with J2 as well 3e-9 m/s² along-track (the differential drag, 
 A servicer knows its own orbit (GNSS, its own orbit determination): :class:`ChaserOrbit` holds samples of that solution
 and the world's gravity (two-body, plus J2 in orbit). :meth:`ChaserOrbit.propagate_relative` carries relative states
 ``[r_L, v_L]`` over a step by integrating the chaser and the target in the inertial frame I (classical RK4 on the
-12-vector ``[R_C, V_C, ρ, ρ̇]``, the relative acceleration formed as ``g(R_C + ρ) − g(R_C)``, which loses nothing to
+chaser ``[R_C, V_C]`` once and every relative state ``[ρ, ρ̇]`` about it, the relative acceleration formed as ``g(R_C + ρ) − g(R_C)``, which loses nothing to
 cancellation at metres: ``|g| ε ≈ 2e-15 m/s²``), from the chaser's own state at the step's start.
 
 The relative state keeps eq. 9's convention, which is also how lcnav's truth writes it
@@ -44,23 +44,25 @@ def gravity_I(r_I: np.ndarray, mu: float = MU_EARTH, j2: bool = True) -> np.ndar
     return a
 
 
-def _rhs(y: np.ndarray, mu: float, j2: bool) -> np.ndarray:
-    """``d/dt [R_C, V_C, ρ, ρ̇]`` in I for ``y`` (m, 12)."""
-    g_c = gravity_I(y[:, 0:3], mu, j2)
-    return np.concatenate([y[:, 3:6], g_c, y[:, 9:12], gravity_I(y[:, 0:3] + y[:, 6:9], mu, j2) - g_c], axis=1)
+def _rhs(c: np.ndarray, rel: np.ndarray, mu: float, j2: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``d/dt`` of the chaser ``c = [R_C, V_C]`` (6,) and of the relative states ``rel = [ρ, ρ̇]`` (m, 6) about it, in I."""
+    g_c = gravity_I(c[0:3], mu, j2)
+    return np.concatenate([c[3:6], g_c]), np.concatenate([rel[:, 3:6], gravity_I(c[0:3] + rel[:, 0:3], mu, j2) - g_c], axis=1)
 
 
-def _rk4(y: np.ndarray, dt_s: float, max_step_s: float, mu: float, j2: bool) -> np.ndarray:
-    """Classical RK4 of :func:`_rhs` over ``dt_s`` in equal steps no longer than ``max_step_s``."""
+def _rk4(c: np.ndarray, rel: np.ndarray, dt_s: float, max_step_s: float, mu: float, j2: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Classical RK4 of :func:`_rhs` over ``dt_s`` in equal steps no longer than ``max_step_s``: the chaser once, every
+    relative state about it."""
     n_sub = max(1, int(np.ceil(abs(dt_s) / max_step_s)))
     h = dt_s / n_sub
     for _ in range(n_sub):
-        k1 = _rhs(y, mu, j2)
-        k2 = _rhs(y + 0.5 * h * k1, mu, j2)
-        k3 = _rhs(y + 0.5 * h * k2, mu, j2)
-        k4 = _rhs(y + h * k3, mu, j2)
-        y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    return y
+        k1 = _rhs(c, rel, mu, j2)
+        k2 = _rhs(c + 0.5 * h * k1[0], rel + 0.5 * h * k1[1], mu, j2)
+        k3 = _rhs(c + 0.5 * h * k2[0], rel + 0.5 * h * k2[1], mu, j2)
+        k4 = _rhs(c + h * k3[0], rel + h * k3[1], mu, j2)
+        c = c + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+        rel = rel + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+    return c, rel
 
 
 @dataclass(frozen=True)
@@ -101,8 +103,7 @@ class ChaserOrbit:
         dt = float(t_s - self.t_s[i])
         if dt == 0.0:
             return self.state_I[i].copy()
-        y = np.concatenate([self.state_I[i], np.zeros(6)])[None, :]
-        return _rk4(y, dt, self.max_step_s, self.mu, self.j2)[0, :6]
+        return _rk4(self.state_I[i], np.zeros((0, 6)), dt, self.max_step_s, self.mu, self.j2)[0]
 
     def propagate_relative(self, x_L: np.ndarray, t_s: float, dt_s: float) -> np.ndarray:
         """Relative states ``x_L`` (m, 6) ``[r_L (m), v_L (m/s)]`` at ``t_s`` carried to ``t_s + dt_s`` (module docstring)."""
@@ -112,7 +113,7 @@ class ChaserOrbit:
         w_L = np.array([0.0, 0.0, self.n_rad_s])
         rho = x[:, :3] @ C_LI  # C_LIᵀ r_L, row-wise
         rho_dot = (x[:, 3:] + np.cross(w_L, x[:, :3])) @ C_LI
-        y = _rk4(np.concatenate([np.broadcast_to(chaser, (x.shape[0], 6)), rho, rho_dot], axis=1), dt_s, self.max_step_s, self.mu, self.j2)
-        C1 = lvlh_dcm(y[0, :3], y[0, 3:6])
-        r1 = y[:, 6:9] @ C1.T
-        return np.concatenate([r1, y[:, 9:12] @ C1.T - np.cross(w_L, r1)], axis=1).reshape(np.shape(x_L))
+        c1, rel = _rk4(chaser, np.concatenate([rho, rho_dot], axis=1), dt_s, self.max_step_s, self.mu, self.j2)
+        C1 = lvlh_dcm(c1[:3], c1[3:6])
+        r1 = rel[:, :3] @ C1.T
+        return np.concatenate([r1, rel[:, 3:] @ C1.T - np.cross(w_L, r1)], axis=1).reshape(np.shape(x_L))
