@@ -1,4 +1,4 @@
-"""The init and proxy studies (Renis et al. §6.2, §6.3) re-run on the perturbed truth with the default filters (issue 31).
+"""The tuning, init and proxy studies (Renis et al. §6.1–§6.3) re-run on the perturbed truth with the default filters (issue 31).
 
 ``python -m benchmarks studies_perturbed``. Each study runs from its catalog config
 (``studies/catalog/configs/<name>.toml``: the light-curve prior, ``prior_source = "lightcurves"``, so no truth reaches it)
@@ -9,7 +9,13 @@ guess (the studies' pairing), so the effect of the prior is the per-seed differe
 95 % Student-t interval over the seeds where both are finite (a convergence time is +∞ when the run never converged;
 those seeds are counted, not averaged). §6's steady-state RMSE starts at each run's own convergence time, so an arm that
 converges sooner lets more of its transient into it; the second-half RMSE (:func:`studies.sim.metrics.late_rmse`) scores
-both arms over the same steps. Nothing here is asserted.
+both arms over the same steps.
+
+The tuning study has no ``tuning`` key: its grid is built on ``q_base_tuning``, set to the default, with the base itself
+as the grid's last point (``base_point``) and the grid of :data:`TUNING_GRID` about the default's matched budget
+(SC1 and SC3, where that budget was derived). Algorithm 1 picks ``KF_sc`` on the first half of the seeds
+(:func:`studies.catalog.tuning_study.scores`), and the choice is compared with the default on the other half, which
+it was not chosen on: the paired change *chosen − default*. Nothing here is asserted.
 """
 
 from __future__ import annotations
@@ -23,7 +29,8 @@ from pathlib import Path
 import pandas as pd
 
 from estimators.tuning import default_tuning
-from studies.engine.registry import run_study
+from studies.catalog import tuning_study
+from studies.engine.registry import get_study, run_study
 from studies.catalog.filter_common import paired_change
 
 CONFIGS = Path(__file__).resolve().parent.parent / "studies" / "catalog" / "configs"
@@ -38,6 +45,10 @@ STUDIES = {
              + [("late_rmse_q", "second-half RMSE q (mrad)", 1e3), ("late_rmse_w", "second-half RMSE ω (mrad/s)", 1e3),
                 ("late_rmse_r", "second-half RMSE r (m)", 1.0), ("late_rmse_v", "second-half RMSE v (mm/s)", 1e3),
                 ("late_rmse_k", "second-half RMSE k (×1e-3)", 1e3)]),
+    "tuning": ("chosen", [("C_t_s", "C_t, all groups converged (s)", 1.0), ("E_SS", "E_SS (RMSE / threshold)", 1.0),
+                          ("nees_per_dof", "NEES/dof from 60 s", 1.0),
+                          ("late_rmse_q", "second-half RMSE q (mrad)", 1e3), ("late_rmse_w", "second-half RMSE ω (mrad/s)", 1e3),
+                          ("late_rmse_r", "second-half RMSE r (m)", 1.0), ("late_rmse_v", "second-half RMSE v (mm/s)", 1e3)]),
     "proxy": ("proxy", [("fault_w_err_rms_rad_s", "ω error RMS in the fault (mrad/s)", 1e3), ("fault_q_err_rms_rad", "q error RMS in the fault (mrad)", 1e3),
                         ("fault_r_err_rms_m", "r error RMS in the fault (m)", 1.0), ("ess_q", "steady RMSE q after it (mrad)", 1e3),
                         ("ess_w", "steady RMSE ω after it (mrad/s)", 1e3), ("ess_r", "steady RMSE r after it (m)", 1.0),
@@ -45,11 +56,23 @@ STUDIES = {
 }
 
 
+#: The tuning study's keys besides ``truth``, ``record`` and ``n_seeds``: the grid about the default's matched budget (rate
+#: 8.05e-13 rad²/s³, translation 3.85e-11 m²/s³: each block from a hundredth of it to a hundred times it).
+TUNING_GRID = {"q_base_tuning": f'"{default_tuning("perturbed")}"', "base_point": "true", "scenarios": '["SC1", "SC3"]',
+               "general_scenario": '"SC3"', "q_blocks": '["w_ST_T", "v_ST_T"]', "q_exponents": "[-14, -12, -10]"}
+
+
+def changed_keys(name: str, n_seeds: int) -> dict[str, str]:
+    """The top-level keys of study ``name``'s catalog config that this benchmark changes, with their TOML values."""
+    world = {"q_base_tuning": TUNING_GRID["q_base_tuning"]} if name == "tuning" else {"tuning": f'"{default_tuning("perturbed")}"'}
+    return {"truth": '"perturbed"', **world, "record": "false", "n_seeds": str(n_seeds), **(TUNING_GRID if name == "tuning" else {})}
+
+
 def perturbed_config(name: str, n_seeds: int) -> str:
-    """The catalog config of study ``name`` as TOML text with the four keys of the module docstring changed (its comments kept)."""
+    """The catalog config of study ``name`` as TOML text with the keys of :func:`changed_keys` changed (its comments kept)."""
     text = (CONFIGS / f"{name}.toml").read_text()
     head, sep, quick = text.partition("\n[quick]")
-    for key, value in (("truth", '"perturbed"'), ("tuning", f'"{default_tuning("perturbed")}"'), ("record", "false"), ("n_seeds", str(n_seeds))):
+    for key, value in changed_keys(name, n_seeds).items():
         head, n = re.subn(rf"^{key} = [^#\n]*?(\s*#.*)?$", lambda m, k=key, v=value: f"{k} = {v}{m.group(1) or ''}", head, count=1, flags=re.M)
         if n != 1:
             raise RuntimeError(f"{name}.toml: no top-level line '{key} = …' to change")
@@ -75,6 +98,29 @@ def prior_line(runs: pd.DataFrame) -> str:
             f"{r.prior_period_err_pct:+.1e} % off, sense {'right' if r.prior_sense_right else 'wrong'} (probability "
             f"{r.prior_sense_probability:.2f}), {int(r.prior_n_modes)} mode(s); as `ω_T` {1e3 * r.prior_w_err_rad_s:.1f} mrad/s off "
             f"(body axis {r.prior_axis_err_deg:.1f}° off), Mahalanobis² {r.prior_w_mahalanobis2:.2f} against its covariance.")
+
+
+def tuning_comparison(runs: pd.DataFrame, config) -> tuple[list[str], pd.DataFrame]:
+    """Algorithm 1's choice on the first half of the seeds against the base point (the default) on the other half.
+
+    Returns a line per filter and scenario naming the choice, and the held-out runs of the choice and the base with the
+    column ``chosen`` (True for the choice) and ``filter`` relabelled ``<filter> <scenario>``: :func:`paired_rows`' input.
+    """
+    runs = runs.assign(diverged=runs["diverged"].astype(bool), converged_all=runs["converged_all"].fillna(False).astype(bool))
+    n = int(runs["seed_index"].max()) + 1
+    tune, test = runs[runs["seed_index"] < n // 2], runs[runs["seed_index"] >= n // 2]
+    scored = tuning_study.scores(tune, config)
+    base = int(runs["q_index"].max())
+    lines, parts = [], []
+    for _, b in scored[scored["rank"] == 1].iterrows():
+        f, sc, q = b["filter"], b["scenario"], int(b["q_index"])
+        label = tuning_study._q_label(b, config["q_blocks"], config["q_base_tuning"])
+        lines.append(f"- {f.upper()} {sc}: chosen on seeds 0–{n // 2 - 1}: {label} (point {q}, G {b['G']:.3g}; the default's G "
+                     f"{scored[(scored['filter'] == f) & (scored['scenario'] == sc) & (scored['q_index'] == base)]['G'].item():.3g})")
+        mine = test[(test["filter"] == f) & (test["scenario"] == sc)]
+        parts.append(pd.concat([mine[mine["q_index"] == base].assign(chosen=False), mine[mine["q_index"] == q].assign(chosen=True)])
+                     .assign(filter=f"{f} {sc}"))
+    return lines, pd.concat(parts, ignore_index=True)
 
 
 def chosen_studies() -> list[str]:
@@ -108,7 +154,7 @@ def earlier_subsections(names: list[str], text: str) -> list[str]:
 def run() -> str:
     n_seeds = int(os.environ.get(SEEDS_ENV, "20"))
     names = chosen_studies()
-    parts = ["## Init and proxy studies on the perturbed truth with the default filters (issue 31)", "",
+    parts = ["## Tuning, init and proxy studies on the perturbed truth with the default filters (issue 31)", "",
              f"Catalog configs with `truth = \"perturbed\"`, `tuning = \"{default_tuning('perturbed')}\"`, {n_seeds} seeds, the light-curve prior "
              "(no truth reaches it). Medians over seeds (a convergence time never reached is +∞); paired change = with − without on the "
              "same measurements, mean and 95 % t interval over the seeds where both arms are finite; 'lower' counts those seeds where "
@@ -124,9 +170,15 @@ def run() -> str:
             res = run_study(name, config_path=cfg, out=Path(tmp) / name, progress=False)
             wall = time.perf_counter() - t0
             parts += ["", f"### `{name}` ({len(res.runs)} runs, {wall:.0f} s wall on {os.cpu_count()} local workers)", ""]
-            if line := prior_line(res.runs):
+            runs, without, with_ = res.runs, "without", f"with {arm}"
+            if name == "tuning":
+                lines, runs = tuning_comparison(res.runs, get_study(name).load(cfg, quick=False))
+                without, with_ = f"{default_tuning('perturbed')} (default)", "Algorithm 1's choice"
+                parts += ["Algorithm 1's choice (`KF_sc`) on the first half of the seeds; every figure below is on the other half "
+                          "(paired change = choice − default; 0 where the choice is the default):", "", *lines, ""]
+            if line := prior_line(runs):
                 parts += [line, ""]
-            parts += [f"| filter | metric | median without | median with {arm} | finite without / with | paired change [95 % CI] | seeds | lower |",
-                      "|---|---|---|---|---|---|---|---|", *paired_rows(res.runs, arm, metrics)]
+            parts += [f"| filter | metric | median {without} | median {with_} | finite without / with | paired change [95 % CI] | seeds | lower |",
+                      "|---|---|---|---|---|---|---|---|", *paired_rows(runs, arm, metrics)]
     results = Path(__file__).resolve().parent / "RESULTS.md"
     return "\n".join(parts + earlier_subsections(names, results.read_text() if results.exists() else ""))

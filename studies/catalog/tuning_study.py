@@ -24,10 +24,20 @@ the median convergence time and steady-state RMSE of ``KF_sc`` and, next to
 it, of ``KF_gen`` on the same seeds. The selection uses the same runs it
 reports (the paper does the same), so ``KF_sc``'s figures are optimistic by
 the selection; ``tuning_scores.png`` shows ``G`` over the grid.
+
+A grid point is ``q_base_tuning`` with only its grid blocks' intensities changed: its settling phase, re-linearisation
+window and process model are kept, so the grid tunes the filter a user runs (``fixed-lag`` in orbit, beyond the
+paper). Where the base carries a matched budget (:class:`estimators.process_noise.MatchedBudget`) the ``w_ST_T``,
+``v_ST_T`` and ``k`` blocks set its intensities (the same units, rad²/s³, m²/s³ and 1/s, discretised with their
+cross terms, eq. 1 of :mod:`estimators.process_noise`) instead of adding a diagonal ``Q_d``. ``base_point`` adds the
+base tuning itself as the last point: what the grid's choice is measured against. Each run also records its NEES/dof
+after :data:`studies.sim.metrics.SETTLING_S` (considered states left out): Algorithm 1 scores accuracy only, and
+the chosen ``Q_d``'s consistency is reported beside it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from pathlib import Path
 
@@ -35,12 +45,13 @@ import numpy as np
 import pandas as pd
 
 from estimators.navigation import FILTERS
-from estimators.state import ERROR_GROUPS
+from estimators.process_noise import DisturbanceBudget
+from estimators.state import ERROR_GROUPS, N_ERROR
 from estimators.tuning import TUNINGS, Tuning, get_tuning
 from studies.catalog.figures import pyplot, save_png
 from studies.catalog.filter_common import COMMON_FIELDS, COMMON_RUN_FIELDS, check_common, metric_tables, pose_noise, thresholds
 from studies.engine.config import ConfigError, Field, StudyConfig
-from studies.sim.metrics import GROUPS
+from studies.sim.metrics import GROUPS, SETTLING_S, nees
 from studies.recording.navigation import record_navigation
 from studies.sim.navigation import NavigationSetup, considered_states, error_series, navigate, one_axis, run_metrics
 from studies.sim.scenarios import SCENARIOS, get_scenario
@@ -52,6 +63,8 @@ TITLE = "Q_d tuning by orders of magnitude (Renis et al. §6.1, Algorithm 1): sc
 
 #: Grid block name -> metric group / error-state slice.
 BLOCKS = {"q_TS": "q", "w_ST_T": "w", "r_ST_T": "r", "v_ST_T": "v", "k": "k"}
+#: Grid block -> the :class:`estimators.process_noise.MatchedBudget` intensity it sets when the base tuning has one.
+BUDGET_FIELDS = {"w_ST_T": "q_alpha_rad2_s3", "v_ST_T": "q_a_m2_s3", "k": "q_kdot_1_s"}
 
 FIELDS: dict[str, Field] = {
     "filters": Field("list[str]", "Filters to tune.", choices=tuple(FILTERS)),
@@ -64,6 +77,8 @@ FIELDS: dict[str, Field] = {
     "q_exponents": Field("list[int]", "Each grid block's variance rate takes 10**exponent for these exponents."),
     "q_base_tuning": Field("str", "Named tuning giving the blocks off the grid, P_0 and R_d.", choices=tuple(TUNINGS), default="general-conservative"),
     "score_weight": Field("float", "lambda of G = lambda*C_t + (1 - lambda)*E_SS.", ge=0, le=1, default=0.5),
+    "base_point": Field("bool", "Also run q_base_tuning itself as the grid's last point (what the grid's choice is measured against).",
+                        default=False),
     **COMMON_FIELDS,
 }
 _RUN_FIELDS = ("duration_s", "dt_s", "q_base_tuning", *COMMON_RUN_FIELDS)
@@ -78,36 +93,54 @@ def check(params: dict) -> None:
         raise ConfigError(f"general_scenario {params['general_scenario']!r}: expected one of scenarios {params['scenarios']}")
     if not all(-20 <= e <= 5 for e in params["q_exponents"]):
         raise ConfigError(f"q_exponents {params['q_exponents']}: expected integers in [-20, 5]")
+    if isinstance(get_tuning(params["q_base_tuning"]).budget, DisturbanceBudget):
+        raise ConfigError(f"q_base_tuning {params['q_base_tuning']!r}: its Q_d is a disturbance σ budget, not intensities a grid can set; "
+                          "expected a tuning with a matched budget or none")
     if params["dt_s"] > params["duration_s"] / 2:
         raise ConfigError(f"dt_s {params['dt_s']}: expected at most half of duration_s = {params['duration_s']} s")
     check_common(params)
 
 
 def grid(config) -> list[dict[str, int]]:
-    """The Q_d grid: one ``{block: exponent}`` per point, the product over ``q_blocks``."""
-    return [dict(zip(config["q_blocks"], e)) for e in itertools.product(config["q_exponents"], repeat=len(config["q_blocks"]))]
+    """The Q_d grid: one ``{block: exponent}`` per point, the product over ``q_blocks``; with ``base_point``, an empty
+    dict last (the base tuning unchanged)."""
+    points = [dict(zip(config["q_blocks"], e)) for e in itertools.product(config["q_exponents"], repeat=len(config["q_blocks"]))]
+    return points + [{}] if config["base_point"] else points
 
 
 def expand(config: StudyConfig) -> list[RunSpec]:
-    """Filters × scenarios × grid × seeds; run ids ``<filter>-<scenario>-q<index>-s<index>``, seeded per (scenario, seed)."""
+    """Filters × scenarios × grid × seeds; run ids ``<filter>-<scenario>-q<index>-s<index>``, seeded per (scenario, seed).
+    The base point's exponents are NaN."""
     common = {k: config[k] for k in _RUN_FIELDS}
     points = grid(config)
     return make_specs(config.seed, (
         (f"{f}-{sc}-q{j:03d}-s{i:03d}",
-         {"filter": f, "scenario": sc, "q_index": j, **{f"q_exp_{b}": e for b, e in pt.items()}, "seed_index": i, **common},
+         {"filter": f, "scenario": sc, "q_index": j, **{f"q_exp_{b}": float(pt.get(b, np.nan)) for b in config["q_blocks"]}, "seed_index": i,
+          **common},
          f"{sc}-s{i:03d}")
         for f in config["filters"] for sc in config["scenarios"] for j, pt in enumerate(points) for i in range(config["n_seeds"])
     ))
 
 
 def grid_tuning(params) -> Tuning:
-    """The tuning of a grid point: ``q_base_tuning`` with the grid blocks' rates set to ``10**exponent``."""
+    """The tuning of a grid point: ``q_base_tuning`` with the grid blocks' intensities set to ``10**exponent`` — in its
+    matched budget where it has one and the block is one of :data:`BUDGET_FIELDS`, else in its diagonal rate — and
+    everything else (``P_0``, settling phase, window, process model) kept. A point without exponents is the base itself."""
     base = get_tuning(params["q_base_tuning"])
+    exps = {b: params[f"q_exp_{b}"] for b in BLOCKS if params.get(f"q_exp_{b}") is not None and np.isfinite(params[f"q_exp_{b}"])}
+    if not exps:
+        return base
+    if isinstance(base.budget, DisturbanceBudget):
+        raise ValueError(f"tuning {base.name!r}: a σ disturbance budget has no intensities for the grid to set")
     q = base.q_rate.copy()
-    for block, group in BLOCKS.items():
-        if f"q_exp_{block}" in params:
-            q[ERROR_GROUPS[group]] = 10.0 ** params[f"q_exp_{block}"]
-    return Tuning(f"grid-{params.get('q_index', 0)}", q, base.p0_diag)
+    budget = {}
+    for block, e in exps.items():
+        if base.budget is not None and block in BUDGET_FIELDS:
+            budget[BUDGET_FIELDS[block]] = 10.0 ** e
+        else:
+            q[ERROR_GROUPS[BLOCKS[block]]] = 10.0 ** e
+    return dataclasses.replace(base, name=f"grid-{params.get('q_index', 0)}", q_rate=q,
+                               budget=dataclasses.replace(base.budget, **budget) if budget else base.budget)
 
 
 def tracked_groups(scenario: str) -> list[str]:
@@ -141,17 +174,25 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
     errors = error_series(tr, run)
     if p["record"]:
         record_navigation(workdir / "run.rrd", tr, run, meas, recording_id=f"tuning-{spec.run_id}")
-    return {"n_steps": len(tr.t), "diverged": False, "failure": "", **metrics,
+    return {"n_steps": len(tr.t), "diverged": False, "failure": "", **metrics, "nees_per_dof": settled_nees_per_dof(tr, run, setup.consider),
             **run_score_terms(errors, metrics, tracked_groups(p["scenario"]), th, p["duration_s"])}
+
+
+def settled_nees_per_dof(tr, run, consider) -> float:
+    """The run's mean NEES per degree of freedom over the steps from :data:`SETTLING_S` on, the ``consider``-ed states left out."""
+    states = np.setdiff1d(np.arange(N_ERROR), consider)
+    sel = (tr.t - tr.t[0]) >= SETTLING_S
+    return float(np.mean(nees(run.x[sel], run.P[sel], tr.x[sel], states)) / len(states))
 
 
 def scores(runs: pd.DataFrame, config) -> pd.DataFrame:
     """Algorithm 1: per filter, scenario and grid point, seed means of C_t and E_SS, normalised over the grid, and G."""
     blocks = [f"q_exp_{b}" for b in config["q_blocks"]]
-    runs = runs.assign(C_t_s=runs["C_t_s"].astype(float), E_SS=runs["E_SS"].astype(float))
-    g = runs.groupby(["filter", "scenario", "q_index", *blocks], sort=False).agg(
+    runs = runs.assign(C_t_s=runs["C_t_s"].astype(float), E_SS=runs["E_SS"].astype(float),
+                       nees_per_dof=runs["nees_per_dof"].astype(float) if "nees_per_dof" in runs else np.nan)
+    g = runs.groupby(["filter", "scenario", "q_index", *blocks], sort=False, dropna=False).agg(
         runs=("C_t_s", "size"), diverged=("diverged", "sum"), converged=("converged_all", "sum"),
-        C_t_s=("C_t_s", "mean"), E_SS=("E_SS", "mean")).reset_index()
+        C_t_s=("C_t_s", "mean"), E_SS=("E_SS", "mean"), nees_per_dof=("nees_per_dof", "mean")).reset_index()
     # a point where the filter broke down on any seed is disqualified: no score, ranked last
     g.loc[g["diverged"] > 0, ["C_t_s", "E_SS"]] = np.nan
 
@@ -176,7 +217,9 @@ def best_points(sc: pd.DataFrame, config) -> pd.DataFrame:
     return best
 
 
-def _q_label(row, blocks) -> str:
+def _q_label(row, blocks, base: str) -> str:
+    if not any(np.isfinite(row[f"q_exp_{b}"]) for b in blocks):
+        return f"{base} (base)"
     return ", ".join(f"{b} 1e{int(row[f'q_exp_{b}'])}" for b in blocks)
 
 
@@ -197,15 +240,20 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
         conv, ess, stats = metric_tables(runs, arms, groups, confidence=config["confidence"])
         for part, lst in ((conv, conv_parts), (ess, ess_parts), (stats, stats_parts)):
             lst.append(part.assign(filter=f.upper())[["filter", *part.columns]])
-    chosen = best.assign(filter=best["filter"].str.upper(), KF_sc=best.apply(lambda r: _q_label(r, blocks), axis=1),
-                         KF_gen=best.apply(lambda r: _q_label(sc_table[(sc_table["filter"] == r["filter"]) & (sc_table["q_index"] == r["gen_q_index"])
-                                                                       & (sc_table["scenario"] == r["scenario"])].iloc[0], blocks), axis=1))
-    gen_G = sc_table.set_index(["filter", "scenario", "q_index"])["G"]
-    chosen["G of KF_gen"] = [gen_G[(f.lower(), s, int(q))] for f, s, q in zip(chosen["filter"], chosen["scenario"], chosen["gen_q_index"])]
-    chosen = chosen[["filter", "scenario", "q_index", "KF_sc", "G", "C_t_s", "E_SS", "converged", "runs", "gen_q_index", "KF_gen", "G of KF_gen"]].rename(
-        columns={"q_index": "KF_sc point", "G": "G of KF_sc", "C_t_s": "mean C_t (s)", "E_SS": "mean E_SS", "gen_q_index": "KF_gen point"})
+    base = config["q_base_tuning"]
+    gen = sc_table.set_index(["filter", "scenario", "q_index"])
+    gen_rows = [gen.loc[(r["filter"], r["scenario"], int(r["gen_q_index"]))] for _, r in best.iterrows()]
+    chosen = best.assign(filter=best["filter"].str.upper(), KF_sc=best.apply(lambda r: _q_label(r, blocks, base), axis=1),
+                         KF_gen=[_q_label(r, blocks, base) for r in gen_rows])
+    chosen["G of KF_gen"] = [r["G"] for r in gen_rows]
+    chosen["NEES/dof of KF_gen"] = [r["nees_per_dof"] for r in gen_rows]
+    chosen = chosen[["filter", "scenario", "q_index", "KF_sc", "G", "C_t_s", "E_SS", "nees_per_dof", "converged", "runs", "gen_q_index", "KF_gen",
+                     "G of KF_gen", "NEES/dof of KF_gen"]].rename(
+        columns={"q_index": "KF_sc point", "G": "G of KF_sc", "C_t_s": "mean C_t (s)", "E_SS": "mean E_SS", "nees_per_dof": "NEES/dof of KF_sc",
+                 "gen_q_index": "KF_gen point"})
     n_pts = len(grid(config))
-    notes = (f"{n_pts} Q_d points ({', '.join(blocks)} over 1e{config['q_exponents']}; other blocks from '{config['q_base_tuning']}'), "
+    notes = (f"{n_pts} Q_d points ({', '.join(blocks)} over 1e{config['q_exponents']}; other blocks from '{config['q_base_tuning']}'"
+             f"{', and that tuning itself as the last point' if config['base_point'] else ''}), "
              f"{config['n_seeds']} seeds each (the same for every point), {config['duration_s']:g} s at {config['dt_s']:g} s. "
              f"Columns 'SCn sc': the scenario-specific filter KF_sc; 'SCn (gen)': KF_gen (best on {config['general_scenario']}) on the same seeds "
              "(the paper's brackets). Medians over seeds; a run that did not converge counts as +∞ ('–': most runs did not converge). "
@@ -218,7 +266,8 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
               default_format=".3g"),
         Table("chosen",
               f"Chosen Q_d per filter and scenario (G = {config['score_weight']:g} C_t + {1 - config['score_weight']:g} E_SS, normalised over the grid)",
-              chosen, "Lower G is better; C_t: time all tracked groups converged (run length if never); E_SS: mean over groups of RMSE / threshold.",
+              chosen, "Lower G is better; C_t: time all tracked groups converged (run length if never); E_SS: mean over groups of RMSE / threshold; "
+              f"NEES/dof: mean over seeds of each run's mean from {SETTLING_S:g} s on (1 when consistent; Algorithm 1 does not score it).",
               default_format=".3g"),
         Table("scores", "Algorithm 1 scores over the grid", sc_table, default_format=".3g"),
         Table("statistics", "Every metric of KF_sc and KF_gen: runs converged, mean with t interval, median with order-statistic interval",

@@ -13,16 +13,36 @@ from studies.engine.registry import get_study
 
 @pytest.mark.parametrize("name", list(B.STUDIES))
 def test_the_config_is_the_catalog_s_in_the_perturbed_world(name, tmp_path):
-    """Only the four keys change (the quick table and every other key as in the catalog), and the study accepts it."""
+    """Only the benchmark's keys change (the quick table and every other key as in the catalog), and the study accepts it."""
     catalog = tomllib.loads((B.CONFIGS / f"{name}.toml").read_text())
     path = tmp_path / f"{name}.toml"
     path.write_text(B.perturbed_config(name, 7))
     ours = tomllib.loads(path.read_text())
-    assert (ours["truth"], ours["tuning"], ours["record"], ours["n_seeds"]) == ("perturbed", default_tuning("perturbed"), False, 7)
-    assert {k: v for k, v in ours.items() if k not in ("truth", "tuning", "record", "n_seeds")} == \
-        {k: v for k, v in catalog.items() if k not in ("truth", "tuning", "record", "n_seeds")}
+    changed = B.changed_keys(name, 7)
+    world = "q_base_tuning" if name == "tuning" else "tuning"
+    assert (ours["truth"], ours[world], ours["record"], ours["n_seeds"]) == ("perturbed", default_tuning("perturbed"), False, 7)
+    assert {k: v for k, v in ours.items() if k not in changed} == {k: v for k, v in catalog.items() if k not in changed}
     config = get_study(name).load(path, quick=False)
     assert config["truth"] == "perturbed" and config["n_seeds"] == 7
+    if name == "tuning":  # the default itself is the grid's last point, so the choice can be compared with it
+        assert config["base_point"] and len(get_study(name).expand(config)) == 2 * 2 * (3 ** 2 + 1) * 7
+
+
+def test_the_tuning_choice_is_made_on_half_the_seeds_and_compared_on_the_other():
+    """Seeds 0–1 choose (point 1 has the lower C_t and E_SS there), seeds 2–3 compare it with the base (point 2) seed by
+    seed: on them point 1 is worse, and the table says so, against the base's own figures."""
+    rows = []
+    for seed in range(4):
+        for q, (ct, ess) in enumerate([(50.0, 2.0), (10.0, 1.0) if seed < 2 else (40.0, 3.0), (30.0, 1.5)]):
+            rows.append({"filter": "ekf", "scenario": "SC3", "q_index": q, "q_exp_w_ST_T": [-12.0, -10.0, np.nan][q], "seed_index": seed,
+                         "C_t_s": ct + seed, "E_SS": ess, "nees_per_dof": 1.0, "diverged": False, "converged_all": True})
+    config = {"q_blocks": ["w_ST_T"], "score_weight": 0.5, "q_base_tuning": "fixed-lag"}
+    lines, held = B.tuning_comparison(pd.DataFrame(rows), config)
+    assert lines == ["- EKF SC3: chosen on seeds 0–1: w_ST_T 1e-10 (point 1, G 0; the default's G 0.5)"]
+    assert sorted(held["seed_index"].unique()) == [2, 3] and set(held["q_index"]) == {1, 2}
+    (row,) = B.paired_rows(held, "chosen", [("C_t_s", "C_t (s)", 1.0)])
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[:4] == ["EKF SC3", "C_t (s)", "32.5", "42.5"] and cells[5].startswith("+10 [")
 
 
 def test_a_config_without_the_key_is_refused(monkeypatch, tmp_path):
@@ -48,7 +68,7 @@ def test_the_studies_run_are_chosen_by_name(monkeypatch):
     assert B.chosen_studies() == list(B.STUDIES)
     monkeypatch.setenv(B.ONLY_ENV, " init ")
     assert B.chosen_studies() == ["init"]
-    for bad in ("init,tuning", ","):
+    for bad in ("init,chain", ","):
         monkeypatch.setenv(B.ONLY_ENV, bad)
         with pytest.raises(SystemExit, match=B.ONLY_ENV):
             B.chosen_studies()
