@@ -926,9 +926,12 @@ def _tilted_fits(fit: _Problem, chi2: float, plain: _Data, radii_deg: tuple = TI
 
 def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: np.ndarray, n_phases: int, n_free: int,
                         workers: int, rescreen: bool = False) -> list[tuple[float, _Problem]]:
-    """Step 2's last stages for a known shape, from the subsample fits ``coarse`` and their distinct optima ``kept``: with
-    ``rescreen`` the best optimum tilted (:func:`_tilted_fits`) and the rescreen at the (new) best's pole
-    (:func:`_rescreen_fits`), the cycle-count aliases of the (new) best
+    """Step 2's last stages for a known shape, from the subsample fits ``coarse`` and their distinct optima ``kept``: the
+    best optimum tilted (:func:`_tilted_fits`; before 2026-12-01 only on a misfit search's path, and a two-night
+    atlas-centaur of the benchmark, schedule index 6, χ²/dof 0.86, ended 6.6° from the truth in a basin 12 above the
+    truth's, which the 3–6° tilts reach for 0.3 s of CPU), the rescreen at the best's pole (:func:`_rescreen_fits`) with
+    ``rescreen`` or when a tilt moved the best (schedule index 113's tilt reaches 0.4° at χ² 539, χ²/dof 0.91 and no longer
+    misfit, and only the rescreen there finds the truth's optimum, 383.6), the cycle-count aliases of the (new) best
     ranked by the full model (:func:`_comb_fits`), then at each optimum the body turned over (a near-symmetric shape's other
     axis sign) and the other principal axes, and at the best (and at a new best) the spin reversed
     (:func:`_reversed_sense_fits`; at every optimum it cost the benchmark's 3 × 600-sample atlas-centaurs with 11 and 25
@@ -937,11 +940,11 @@ def _known_shape_optima(coarse, kept, plain: _Data, omegas: np.ndarray, axes_T: 
     difference of tens to less than the one :func:`_lower_from` asks for, so with the tempered samples (before
     2026-11-30) the other-axis and half-turned starts of schedule index 40 of the benchmark never passed (the fix found
     χ² 22 lower about x, its axis's twin)."""
-    if rescreen:
-        tilted = _tilted_fits(kept[0][1], kept[0][0], plain)
-        if tilted:
-            coarse = coarse + tilted
-            kept = _distinct_within_reach(coarse, n_free)
+    tilted = _tilted_fits(kept[0][1], kept[0][0], plain)
+    if tilted:
+        coarse = coarse + tilted
+        kept = _distinct_within_reach(coarse, n_free)
+    if rescreen or tilted:  # a best that moved by a tilt was in the wrong basin: its phase and rate are screened again there
         found = _rescreen_fits(kept[0][1], kept[0][0], plain, omegas, axes_T, n_phases)
         if found:
             coarse = coarse + found
