@@ -222,7 +222,8 @@ def report(rows: dict, size: Size, header: str) -> str:
               f"{len(facet)} objects (atlas-centaur, vespa, box-wing), 1–{MAX_NIGHTS} nights of ~{size.samples_per_night} samples; the true sidereal period "
               f"was inside the range given on {sum(r['truth_in_range'] for r in facet)} of {len(facet)}.", "",
               coverage_table(facet), "", "By what the search reported (95 % regions; a NaN profile level, the search's optimum "
-              "beaten at the truth's pole, counts as outside):", "", modality_table(facet), "", requirement_line(facet), "", accuracy_table(facet), "", target_table(facet), "", time_line(facet), ""]
+              "beaten at the truth's pole, counts as outside):", "", modality_table(facet), "", requirement_line(facet), "",
+              accuracy_table(facet), "", target_table(facet), "", time_line(facet), ""]
     parts += [f"### Mitsuba-rendered objects (model mismatch: the honest rows), {MITSUBA_NIGHTS} nights × ~{size.mitsuba_samples_per_night} samples", "",
               f"{len(mitsuba)} objects.", "", coverage_table(mitsuba), "", accuracy_table(mitsuba), "", target_table(mitsuba), ""]
     parts += ["### Sphere (the spin does not change the light curve: not identifiable)", ""]
