@@ -114,7 +114,7 @@ def tuning_comparison(runs: pd.DataFrame, config) -> tuple[list[str], pd.DataFra
     lines, parts = [], []
     for _, b in scored[scored["rank"] == 1].iterrows():
         f, sc, q = b["filter"], b["scenario"], int(b["q_index"])
-        label = tuning_study._q_label(b, config["q_blocks"], config["q_base_tuning"])
+        label = tuning_study.q_label(b, config["q_blocks"], config["q_base_tuning"])
         lines.append(f"- {f.upper()} {sc}: chosen on seeds 0–{n // 2 - 1}: {label} (point {q}, G {b['G']:.3g}; the default's G "
                      f"{scored[(scored['filter'] == f) & (scored['scenario'] == sc) & (scored['q_index'] == base)]['G'].item():.3g})")
         mine = test[(test["filter"] == f) & (test["scenario"] == sc)]

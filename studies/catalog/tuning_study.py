@@ -217,7 +217,8 @@ def best_points(sc: pd.DataFrame, config) -> pd.DataFrame:
     return best
 
 
-def _q_label(row, blocks, base: str) -> str:
+def q_label(row, blocks, base: str) -> str:
+    """A grid point's ``Q_d`` in words: each block's ``1e<exponent>``, or ``<base> (base)`` for the base point."""
     if not any(np.isfinite(row[f"q_exp_{b}"]) for b in blocks):
         return f"{base} (base)"
     return ", ".join(f"{b} 1e{int(row[f'q_exp_{b}'])}" for b in blocks)
@@ -243,8 +244,8 @@ def summarise(runs: pd.DataFrame, config: StudyConfig, out_dir: Path) -> list[Ta
     base = config["q_base_tuning"]
     gen = sc_table.set_index(["filter", "scenario", "q_index"])
     gen_rows = [gen.loc[(r["filter"], r["scenario"], int(r["gen_q_index"]))] for _, r in best.iterrows()]
-    chosen = best.assign(filter=best["filter"].str.upper(), KF_sc=best.apply(lambda r: _q_label(r, blocks, base), axis=1),
-                         KF_gen=[_q_label(r, blocks, base) for r in gen_rows])
+    chosen = best.assign(filter=best["filter"].str.upper(), KF_sc=best.apply(lambda r: q_label(r, blocks, base), axis=1),
+                         KF_gen=[q_label(r, blocks, base) for r in gen_rows])
     chosen["G of KF_gen"] = [r["G"] for r in gen_rows]
     chosen["NEES/dof of KF_gen"] = [r["nees_per_dof"] for r in gen_rows]
     chosen = chosen[["filter", "scenario", "q_index", "KF_sc", "G", "C_t_s", "E_SS", "nees_per_dof", "converged", "runs", "gen_q_index", "KF_gen",
