@@ -70,15 +70,17 @@ def _curve_tables(model, sun_I, obs_I, t_c, weight_y, weight_B, C_IP, C_TA, node
     o_P = np.einsum("ni,pij->pnj", obs_I, C_IP)
     n_a, n_p, M = C_TA.shape[0], C_IP.shape[0], phases.size
     omega_ref = nodes[nodes.size // 2]
-    psi = np.arange(n_table)[:, None] * (2 * np.pi / n_table) + omega_ref * t_c[None, :]  # (L, N)
-    shape = (n_p, n_table) + s_P.shape[1:]
-    s = unspin(psi, np.broadcast_to(s_P[:, None], shape))  # (n_p, L, N, 3)
-    o = unspin(psi, np.broadcast_to(o_P[:, None], shape))
+    psi = omega_ref * t_c[:, None] + np.arange(n_table)[None, :] * (2 * np.pi / n_table)  # (N, L)
+    # phase the fastest index: consecutive directions are one table step (2π/L) apart, which the shadow table's look-up walks
+    # in a step or two (:func:`lightcurves.inversion.known_shape._locate`)
+    shape = (n_p,) + psi.shape + (3,)
+    s = unspin(psi, np.broadcast_to(s_P[:, :, None], shape))  # (n_p, N, L, 3)
+    o = unspin(psi, np.broadcast_to(o_P[:, :, None], shape))
     S_yB = np.empty((n_a, n_p, nodes.size, M))
     S_BB = np.empty_like(S_yB)
     for a in range(n_a):
-        B = model.basis((s @ C_TA[a].T).reshape(-1, 3), (o @ C_TA[a].T).reshape(-1, 3))[:, 0].reshape(n_p, n_table, -1)
-        _node_sums(np.ascontiguousarray(B.transpose(0, 2, 1)), phases, nodes - omega_ref, t_c, weight_y, weight_B, S_yB[a], S_BB[a])
+        B = model.basis((s @ C_TA[a].T).reshape(-1, 3), (o @ C_TA[a].T).reshape(-1, 3))[:, 0].reshape(n_p, -1, n_table)
+        _node_sums(B, phases, nodes - omega_ref, t_c, weight_y, weight_B, S_yB[a], S_BB[a])
     return S_yB, S_BB
 
 
