@@ -152,8 +152,7 @@ class _SphereInterpolator:
     The convex hull of points on the unit sphere is their spherical Delaunay triangulation
     (Brown 1979, IPL 9). A query ``q`` is located by a walk from the previous query's triangle, or among the triangles
     around its nearest direction (:func:`_locate`); its weights are the barycentric coordinates of the central projection
-    of ``q`` onto that triangle's plane (``b = M⁻¹ q / Σ``), clipped at 0 where ``q`` falls just outside a triangle found
-    by the nearest direction (the nearest vertex of a Delaunay triangulation need not belong to the containing triangle).
+    of ``q`` onto that triangle's plane (``b = M⁻¹ q / Σ``), all ≥ 0 (clipped at 0 should a walk not end).
     """
 
     def __init__(self, directions: np.ndarray):
@@ -236,10 +235,12 @@ def _locate(q, directions, offsets, indices, n_rows, n_cols, around, inv, tri, n
     The triangle is found by a walk from the previous query's (consecutive queries are a curve's consecutive samples, a few
     degrees apart at most): while some b_r < 0, step to the neighbour across the edge opposite corner r, the most negative
     first (a visibility walk, which terminates on a Delaunay triangulation: Devillers, Pion & Teillaud, IJFCS 13, 2002). A
-    run of :data:`_WALK_RUN` queries starts, and a walk longer than :data:`_WALK_STEPS` ends, at the candidate triangle
-    around the query's nearest direction (:func:`_nearest_one`) with the largest smallest barycentric coordinate, whose
-    weights are clipped at 0 where the query falls just outside. The walk replaced that look-up for every query (~100 ns
-    each with its arccos and arctan2: 45 % of a box-wing inversion's CPU, in the screen's shadow-table reads).
+    run of :data:`_WALK_RUN` queries starts, and a walk longer than :data:`_WALK_STEPS` restarts, at the candidate triangle
+    around the query's nearest direction (:func:`_nearest_one`) with the largest smallest barycentric coordinate, and walks
+    from there (the nearest vertex of a Delaunay triangulation need not belong to the containing triangle: before
+    2026-12-01 that candidate was kept, its weights clipped at 0), so the triangle found does not depend on the queries'
+    order. The walk replaced the nearest-direction look-up for most queries (~100 ns each with its arccos and arctan2: 45 %
+    of a box-wing inversion's CPU, in the screen's shadow-table reads).
 
     Numba (compiled twice below, serial and parallel over the runs); the numpy form (an (N, deg, 3, 3) gather and einsum)
     took 30 ms for 1800 queries.
@@ -251,7 +252,9 @@ def _locate(q, directions, offsets, indices, n_rows, n_cols, around, inv, tri, n
             qx, qy, qz = q[i, 0], q[i, 1], q[i, 2]
             best = _walk(inv, neighbours, cur, qx, qy, qz) if cur >= 0 else -1
             if best < 0:
-                best = _around_nearest(inv, around[_nearest_one(qx, qy, qz, directions, offsets, indices, n_rows, n_cols)], qx, qy, qz)
+                near = _around_nearest(inv, around[_nearest_one(qx, qy, qz, directions, offsets, indices, n_rows, n_cols)], qx, qy, qz)
+                best = _walk(inv, neighbours, near, qx, qy, qz)
+                best = near if best < 0 else best
             cur = best
             total, g0, g1, g2 = 0.0, 0.0, 0.0, 0.0
             for r in range(3):

@@ -158,6 +158,31 @@ def test_cell_lookup_finds_the_nearest_direction(n):
     np.testing.assert_array_equal(lookup.nearest(q), np.argmax(q @ d.T, axis=1))
 
 
+def test_the_walk_and_the_nearest_direction_locate_the_same_triangle():
+    """A curve's consecutive queries are located by a walk from the previous one's triangle, shuffled ones by their nearest
+    direction: both find the triangle whose cone holds the query (weights ≥ 0 summing to 1 that rebuild the query's
+    direction from its corners), the same one wherever the query is not within 1e-9 of an edge."""
+    d = fibonacci_sphere(2048)
+    lookup = _SphereInterpolator(d)
+    rng = np.random.default_rng(5)
+    axis = _unit(rng.normal(size=3))
+    start = _unit(np.cross(axis, rng.normal(size=3)))
+    phi = np.cumsum(rng.uniform(0.0, np.radians(12.0), 20000))  # steps of 0–12°, up to ~3 table spacings
+    tilt = 0.3 * np.sin(phi / 17.0)
+    q = _unit(np.cos(tilt)[:, None] * (np.cos(phi)[:, None] * start + np.sin(phi)[:, None] * np.cross(axis, start)) + np.sin(tilt)[:, None] * axis)
+    idx, w, _ = lookup(q)
+    perm = rng.permutation(len(q))
+    idx_s, w_s, _ = lookup(q[perm])
+    assert np.all(w >= 0.0) and np.allclose(w.sum(axis=1), 1.0, atol=1e-12)
+    rebuilt = np.einsum("nr,nrk->nk", w, d[idx])
+    np.testing.assert_allclose(_unit(rebuilt), q, atol=1e-12)  # the central projection of q onto the triangle's plane
+    interior = w.min(axis=1) > 1e-9
+    assert interior.mean() > 0.99
+    same = np.sort(idx[perm], axis=1) == np.sort(idx_s, axis=1)
+    assert np.all(same.all(axis=1)[interior[perm]])
+    np.testing.assert_allclose(w[perm][interior[perm]].sum(axis=1), w_s[interior[perm]].sum(axis=1), atol=1e-12)
+
+
 @pytest.mark.parametrize("bad, field", [(np.ones((3, 2)), "sun_T"), (np.full((3, 3), np.nan), "sun_T"), (np.ones((3, 3)), "sun_T")])
 def test_bad_directions_are_named(bad, field):
     model = _plate(WHITE_PAINT)
