@@ -802,9 +802,10 @@ def _other_axis_fits(fit: _Problem, chi2: float, grid: _Data, axes_T: np.ndarray
 
 
 def _reversed_sense_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[float, _Problem]]:
-    """(χ², fit) on the fit's own samples from the fit's spin reversed, if it ends lower than ``chi2`` by more than 1
-    (:func:`_lower_from`): the pole turned to its antipode and the body axis with it (the axis keeps its direction in space,
-    the body turns the other way), at the best phase about it on the grid samples (:func:`_best_phase`) and the same rate.
+    """(χ², fit) on the fit's own samples from the fit's spin reversed, if it ends below ``chi2`` + :data:`COMB_KEEP`
+    (scaled, :func:`_lower_from`): the pole turned to its antipode and the body axis with it (the axis keeps its direction
+    in space, the body turns the other way), at the best phase about it on the grid samples (:func:`_best_phase`) and the
+    same rate. A lower one moves the search on; a higher one is the other sense's mode, which the posterior lists.
 
     The two senses differ only through the body's asymmetry under time reversal and the bisector's drift, so the screen's
     coarse copy cannot rank them, and no fit turns the pole by 180°. On a four-night atlas-centaur of
@@ -814,10 +815,16 @@ def _reversed_sense_fits(fit: _Problem, chi2: float, grid: _Data) -> list[tuple[
     The reversal moves each night's phase by twice the bisector's azimuth there, so a reversed start can land on a
     cycle-count alias (1.2 % off in period at 603.3 with the reversal at every kept optimum); the comb of the reversed start
     itself, evaluated unfitted, is flat (within 6 over 328 rates) and is not walked.
+
+    Until 2026-12-02 only a reversed fit lower by more than 1 was kept. Which sense a search reaches first depends on the
+    rounding of its fits' linear algebra: with OpenBLAS's Haswell kernels (``OPENBLAS_CORETYPE=Haswell``, as on the CI
+    machine) the same object's search reached the reversed spin at χ² 593.1 on the grid samples by a half turn, the
+    truth's sense reversed from there was not lower by 1, and the search listed only the reversed sense (two modes
+    180.0° off, the truth's pole in no region).
     """
     flipped = fit.C_IP0 @ Rotation.from_rotvec([np.pi, 0.0, 0.0]).as_matrix()  # pole → −pole
     C_TA = axis_frame(-fit.C_TA0[:, 2])
-    return _lower_from(fit, chi2, grid, [(_best_phase(grid, fit.model, flipped, fit.omega0, C_TA), fit.omega0, C_TA)])
+    return _lower_from(fit, chi2, grid, [(_best_phase(grid, fit.model, flipped, fit.omega0, C_TA), fit.omega0, C_TA)], COMB_KEEP)
 
 
 #: teeth of the cycle-count comb at the best optimum fitted briefly (:func:`_comb_fits`), the best-ranked by the full model
