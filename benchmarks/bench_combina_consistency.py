@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from studies.sim.combina import COMBINA_BUDGETS
+from studies.sim.combina import AXISYMMETRIC_Q_ALPHA, COMBINA_BUDGETS
 from studies.sim.combina_consistency import SETTLING_S, combina_consistency
 
 RUNS = int(os.environ.get("LCNAV_BENCH_COMBINA_RUNS", "30"))
@@ -55,11 +55,15 @@ def run() -> str:
         "`lcnav combina --pose-source simulated` per row, seeds "
         f"{FIRST_SEED}–{FIRST_SEED + RUNS - 1} (each its own initial estimate drawn from eq. 48's `P_0`, its own registration noise and "
         "outliers; on the perturbed truth its own orbit phase, `U(0, 2π)`); in orbit (the perturbed truth) the translational filter "
-        "propagates about the chaser's own orbit with J2 (`studies.sim.combina.chaser_orbit`), in the torque-free world by eq. 9; "
-        "process noise from `COMBINA_BUDGETS` "
-        f"(q_a = {COMBINA_BUDGETS['asymmetric'].q_a_m2_s3:.3g} m²/s³ in orbit, none in the torque-free world; "
+        "propagates about the chaser's own orbit with J2 (`studies.sim.combina.chaser_orbit`), in the torque-free world by eq. 9, "
+        "and the attitude filter has the gravity-gradient torque about the chaser's radial direction in orbit (eq. 29 in the "
+        "torque-free world) and restarts from batch refits of its initial state while it learns `k` "
+        "(`estimators.combina.acquisition.LearningRefits`); process noise from `COMBINA_BUDGETS` in orbit, none in the torque-free world "
+        f"(q_a = {COMBINA_BUDGETS['asymmetric'].q_a_m2_s3:.3g} m²/s³; "
         f"q_α = {COMBINA_BUDGETS['asymmetric'].q_alpha_rad2_s3:.3g} / "
-        f"{COMBINA_BUDGETS['symmetric'].q_alpha_rad2_s3:.3g} rad²/s³, box-wing / rocket body, in both), developed on seeds 500–529. "
+        f"{COMBINA_BUDGETS['symmetric'].q_alpha_rad2_s3:.3g} rad²/s³, box-wing / rocket body); the axisymmetric filter's "
+        f"q_α = {AXISYMMETRIC_Q_ALPHA['asymmetric']:.3g} / {AXISYMMETRIC_Q_ALPHA['symmetric']:.3g} rad²/s³ "
+        "(its model has no torque) in both worlds; developed on seeds 500–529. "
         f"Statistics from {SETTLING_S:.0f} s after each filter starts (the axisymmetric filter: its run's symmetry switch). "
         "NEES in band: epochs whose mean NEES over the runs with one lies in the two-sided 95 % band of that many χ²(dof); "
         "NEES/dof: per-run mean, 95 % t interval over runs, and the worst run's. NIS: of the nominal registrations only (the "

@@ -152,17 +152,21 @@ def error_mrp_noise_covariance(attitude_sigma_rad: float) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _rigid_body_rk4_nb(Y, h, n_sub):
-    """``n_sub`` RK4 steps of ``h`` seconds of every row ``[q_IT, ω_T, k]`` of ``Y`` (m, 9): eq. 28 in quaternion form, eq. 29, ``k̇ = 0``.
+def _rigid_body_rk4_nb(Y, h, n_sub, g, r_I):
+    """``n_sub`` RK4 steps of ``h`` seconds of every row ``[q_IT, ω_T, k]`` of ``Y`` (m, 9): eq. 28 in quaternion form, eq. 29 with
+    the gravity-gradient torque, ``k̇ = 0``.
 
-    ``q̇ = ½ q ⊗ [0, ω]``; ``ω̇_x = (B − C)/A ω_y ω_z`` and cyclically, with
-    ``[A, B, C] = [e^k1, 1, e^−k2]`` (eq. 27); ``q`` renormalised after every step.
+    ``q̇ = ½ q ⊗ [0, ω]``; ``ω̇_x = (B − C)/A (ω_y ω_z − g r_y r_z)`` and cyclically, with ``[A, B, C] = [e^k1, 1, e^−k2]``
+    (eq. 27), ``r = R(q)ᵀ r_I`` the row's unit radial direction ``r_I[row]`` in T and ``g[row] = 3μ/|R|³`` (rad²/s²; 0:
+    torque-free). The torque ``3μ/|R|⁵ (R_T × J R_T)`` (Hughes 1986) divided by ``J`` has Euler's own coefficients, so
+    the two terms share them. ``q`` renormalised after every step.
     """
     out = Y.copy()
     d = np.empty((4, 7))
     for r in range(Y.shape[0]):
         A, C = np.exp(Y[r, 7]), np.exp(-Y[r, 8])
         c0, c1, c2 = (1.0 - C) / A, C - A, (A - 1.0) / C
+        gr, ex, ey, ez = g[r], r_I[r, 0], r_I[r, 1], r_I[r, 2]
         s = Y[r, :7].copy()
         for _ in range(n_sub):
             for j in range(4):
@@ -172,16 +176,25 @@ def _rigid_body_rk4_nb(Y, h, n_sub):
                 d[j, 1] = 0.5 * (q0 * w0 - q3 * w1 + q2 * w2)
                 d[j, 2] = 0.5 * (q3 * w0 + q0 * w1 - q1 * w2)
                 d[j, 3] = 0.5 * (-q2 * w0 + q1 * w1 + q0 * w2)
-                d[j, 4] = c0 * w1 * w2
-                d[j, 5] = c1 * w2 * w0
-                d[j, 6] = c2 * w0 * w1
+                t0, t1, t2 = w1 * w2, w2 * w0, w0 * w1
+                if gr != 0.0:
+                    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+                    bx = ((1.0 - 2.0 * (q2 * q2 + q3 * q3) / n2) * ex + 2.0 * (q1 * q2 + q0 * q3) / n2 * ey + 2.0 * (q1 * q3 - q0 * q2) / n2 * ez)
+                    by = (2.0 * (q1 * q2 - q0 * q3) / n2 * ex + (1.0 - 2.0 * (q1 * q1 + q3 * q3) / n2) * ey + 2.0 * (q2 * q3 + q0 * q1) / n2 * ez)
+                    bz = (2.0 * (q1 * q3 + q0 * q2) / n2 * ex + 2.0 * (q2 * q3 - q0 * q1) / n2 * ey + (1.0 - 2.0 * (q1 * q1 + q2 * q2) / n2) * ez)
+                    t0 -= gr * by * bz
+                    t1 -= gr * bz * bx
+                    t2 -= gr * bx * by
+                d[j, 4] = c0 * t0
+                d[j, 5] = c1 * t1
+                d[j, 6] = c2 * t2
             s = s + h / 6.0 * (d[0] + 2.0 * d[1] + 2.0 * d[2] + d[3])
             s[:4] /= np.sqrt(s[0] ** 2 + s[1] ** 2 + s[2] ** 2 + s[3] ** 2)
         out[r, :7] = s
     return out
 
 
-def propagate_rigid_body(Y: np.ndarray, dt_s: float, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1) -> np.ndarray:
+def propagate_rigid_body(Y: np.ndarray, dt_s: float, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, gravity_gradient=None) -> np.ndarray:
     """Rows ``[q_IT (4), ω_T (3), k (2)]`` (m, 9) integrated over ``dt_s`` with eqs 28–29, ``k̇ = 0``.
 
     RK4 (compiled, :func:`_rigid_body_rk4_nb`) with a step of at most
@@ -189,13 +202,21 @@ def propagate_rigid_body(Y: np.ndarray, dt_s: float, *, max_step_s: float = 1.0,
     largest rate (see :class:`AttitudeUKF`); at most 200 steps, so that a
     diverged filter's absurd rate cannot stall the loop. Raises ``ValueError``
     when a row is no longer finite (a diverged filter's sigma points).
+    ``gravity_gradient``: ``(g, r_I)`` — ``3μ/|R|³`` (rad²/s², scalar or (m,)) and the unit radial direction in I ((3,) or
+    (m, 3)), held over the interval — adds the target's gravity-gradient torque (:func:`_rigid_body_rk4_nb`); None: torque-free.
     """
     Y = np.ascontiguousarray(Y, dtype=float)
     w_max = float(np.max(np.linalg.norm(Y[:, 4:7], axis=1)))
     if not np.isfinite(w_max):
         raise ValueError("the rigid-body propagation was given a non-finite rate: the filter has diverged")
     n_sub = min(max(1, int(np.ceil(abs(dt_s) / max_step_s)), int(np.ceil(w_max * abs(dt_s) / max_angle_rad))), 200)
-    out = _rigid_body_rk4_nb(Y, float(dt_s) / n_sub, n_sub)
+    m = Y.shape[0]
+    if gravity_gradient is None:
+        g, r_I = np.zeros(m), np.zeros((m, 3))
+    else:
+        g = np.ascontiguousarray(np.broadcast_to(np.asarray(gravity_gradient[0], dtype=float), (m,)))
+        r_I = np.ascontiguousarray(np.broadcast_to(np.asarray(gravity_gradient[1], dtype=float), (m, 3)))
+    out = _rigid_body_rk4_nb(Y, float(dt_s) / n_sub, n_sub, g, r_I)
     if not np.all(np.isfinite(out)):
         raise ValueError("the rigid-body propagation overflowed: the filter has diverged")
     return out
@@ -231,10 +252,16 @@ class AttitudeUKF:
         propagated (:func:`project_k_physical`; the sigma-point projection of
         Kandepu et al., J. Process Control 2008): a point several σ outside it
         has Euler coefficients above 1 and a stiff, inaccurate propagation.
+    orbit : optional
+        in orbit, the servicer's own orbit (:class:`estimators.combina.own_orbit.ChaserOrbit`): the process model then has the
+        target's gravity-gradient torque (:func:`propagate_rigid_body`, the radial direction at each prediction's mid-time);
+        None: torque-free (eq. 29, the paper's).
+    t0_s : float
+        epoch of ``x0`` on the orbit's clock (s).
     """
 
     def __init__(self, x0, P0, *, max_step_s: float = 1.0, max_angle_rad: float = 0.1, Q=None, iterations: int = 0, iterate_k_sd: float = 0.01,
-                 physical: bool = False, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+                 physical: bool = False, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0, orbit=None, t0_s: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
         if x0.shape != (8,):
             raise ValueError(f"x0 must have shape (8,) [sigma, w, k1, k2], got {x0.shape}")
@@ -253,6 +280,8 @@ class AttitudeUKF:
         self.iterations = int(iterations)
         self.iterate_k_sd = float(iterate_k_sd)
         self.physical = bool(physical)
+        self.orbit = orbit
+        self.t_s = float(t0_s)
         self._prior = None
         self._attitude_inn = None
         self.n_shadow_switches = 0
@@ -278,18 +307,19 @@ class AttitudeUKF:
         """``δσ`` with ``q_IT = q̂_IT ⊗ q(δσ)`` (``|δσ| ≤ 1``) — also the filter's attitude error convention."""
         return quat_to_mrp(quat_multiply(quat_conjugate(self.q_ref), q_IT))
 
-    def _integrate(self, X: np.ndarray, dt: float, q_ref: np.ndarray) -> np.ndarray:
-        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → ``[q_IT, ω, k]`` (9 columns) after ``dt`` (eqs 28–29, RK4 substeps)."""
+    def _integrate(self, X: np.ndarray, dt: float, q_ref: np.ndarray, t_s: float) -> np.ndarray:
+        """Sigma points ``[δσ, ω, k]`` about ``q_ref`` at ``t_s`` → ``[q_IT, ω, k]`` (9 columns) after ``dt`` (eqs 28–29, RK4 substeps)."""
         k = project_k_physical(X[:, K]) if self.physical else X[:, K]
         Y = np.concatenate([quat_multiply(q_ref, mrp_to_quat(X[:, SIGMA])), X[:, OMEGA], k], axis=1)
-        return propagate_rigid_body(Y, dt, max_step_s=self.max_step_s, max_angle_rad=self.max_angle_rad)
+        gg = None if self.orbit is None else self.orbit.gravity_gradient(t_s + 0.5 * dt)
+        return propagate_rigid_body(Y, dt, max_step_s=self.max_step_s, max_angle_rad=self.max_angle_rad, gravity_gradient=gg)
 
     def _propagate(self, X: np.ndarray, dt: float) -> np.ndarray:
         """Sigma points ``[δσ, ω, k]`` about ``q_ref`` → propagated, as error MRPs about the propagated central point.
 
         Sets ``q_ref`` to the propagated central point's attitude.
         """
-        Y = self._integrate(X, dt, self.q_ref)
+        Y = self._integrate(X, dt, self.q_ref, self.t_s)
         self.q_ref = _canonical_quat(Y[0, :4])
         return np.concatenate([self.error_mrp(Y[:, :4]), Y[:, 4:]], axis=1)  # canonical: the shadow choice per point
 
@@ -311,9 +341,10 @@ class AttitudeUKF:
             raise ValueError(f"dt_s must be positive and finite, got {dt_s!r}")
         Q = self.Q(dt_s) if callable(self.Q) else self.Q
         # the posterior this prediction starts from, for the iterated correction (δσ = 0 after the reset)
-        self._prior = (self.core.x.copy(), self.core.P.copy(), self.q_ref.copy(), float(dt_s), Q)
+        self._prior = (self.core.x.copy(), self.core.P.copy(), self.q_ref.copy(), float(dt_s), Q, self.t_s)
         self._attitude_inn = None
         self.core.predict(lambda X: self._propagate(X, dt_s), Q=Q)
+        self.t_s += float(dt_s)
         # the mean error MRP moves into q̂ and the sigma points of eqs 14–17 are redrawn about it from P,
         # so that P, S and P_xz describe the same set of points
         self._reset()
@@ -364,14 +395,14 @@ class AttitudeUKF:
         is the UKF's own linearisation; each later one is taken where the
         posterior mass lies.
         """
-        x0, P0, q0, dt, Q = self._prior
+        x0, P0, q0, dt, Q, t0 = self._prior
         q_c = self.q_ref.copy()  # the chart of z
         pts = self.core.points
         Wm, Wc = pts.Wm, pts.Wc
         m, Pm = x0.copy(), P0.copy()
         for _ in range(self.iterations):
             X = pts.sigma_points(m, Pm)
-            Y = self._integrate(X, dt, q0)
+            Y = self._integrate(X, dt, q0, t0)
             Z = quat_to_mrp(quat_multiply(quat_conjugate(q_c), Y[:, :4]))
             z_bar = Wm @ Z
             dX, dZ = X - m, Z - z_bar
@@ -385,7 +416,9 @@ class AttitudeUKF:
             Pm = 0.5 * (Pm + Pm.T)
         self.q_ref = q0.copy()
         self.core.x, self.core.P = m, Pm
+        self.t_s = t0
         self.core.predict(lambda X: self._propagate(X, dt), Q=Q)
+        self.t_s = t0 + dt
         return self._reset()
 
 

@@ -78,7 +78,7 @@ from typing import Protocol
 import numpy as np
 
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
-from estimators.combina.acquisition import acquire_attitude
+from estimators.combina.acquisition import LearningRefits, acquire_attitude
 from estimators.combina.attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
 from estimators.combina.axisymmetric import AxisymmetricUKF, axisymmetric_process_noise, chart_difference, frame_mrp, gamma_frame_dcm
 from estimators.combina.gates import mahalanobis_gate, scale_gate
@@ -141,31 +141,40 @@ ROLL_WINDOW = 5
 #: random one). Translation (2026-12-01): 9.9e-15 m²/s³, the differential drag (3e-9 m/s² along-track) that the relative
 #: motion about the chaser's own orbit with J2 (:func:`chaser_orbit`) leaves out; eq. 9 about the circular orbit left 370×
 #: more, 3.71e-12 (2.5–5.8e-12 by orbit phase: J2 on the chaser's orbit and across the separation), and a run's NEES then
-#: depended on where on its orbit it started. Attitude (2026-11-29): 1.38e-12 rad²/s³ on the box-wing (1.23–1.54e-12;
-#: gravity gradient, RMS 6e-8 rad/s²; memory 230 s), 4.93e-11 on the rocket body (A/C = 4: 5.2e-7 rad/s²; memory 93 s);
-#: the gravity gradient stays out of eq. 29 (README, issue 31: modelled, with the 2.6e-16 it leaves, the attitude filter is
-#: over-confident, as it is on the torque-free truth with no process noise). The same budget serves the torque-free truth,
-#: where there is no disturbance to cover: the attitude filter is conservative there (:mod:`studies.sim.combina_consistency`
-#: says by how much), the translational one nearly consistent.
+#: depended on where on its orbit it started. Attitude (2026-12-02): in orbit the attitude filter's model has the
+#: gravity-gradient torque about the chaser's radial direction (:class:`estimators.combina.attitude.AttitudeUKF`'s ``orbit``),
+#: which leaves 2.60e-16 rad²/s³ on the box-wing (3e-10 rad/s² RMS: the nutation damping and the target's offset from the
+#: chaser) and 1.70e-14 on the rocket body; without it (2026-11-29) 1.38e-12 and 4.93e-11 (the gravity gradient, 6e-8 and
+#: 5.2e-7 rad/s²), over-confident once the filter had learned ``k`` (26 % of the epochs above the band over 30 runs) until the
+#: refits of :class:`estimators.combina.acquisition.LearningRefits` mended the UKF's own over-confidence while it learns
+#: ``k``. The axisymmetric filter's model (eqs 35–40, a fixed ``Γ``) has no torque: :data:`AXISYMMETRIC_Q_ALPHA`.
 COMBINA_BUDGETS = {
-    "asymmetric": MatchedBudget(q_alpha_rad2_s3=1.38e-12, q_a_m2_s3=9.9e-15,
+    "asymmetric": MatchedBudget(q_alpha_rad2_s3=2.60e-16, q_a_m2_s3=9.9e-15,
                                 source="combina_matched_budget of COMBINA-asymmetric, perturbed truth, 2 orbits, mean over 8 orbit phases"),
-    "symmetric": MatchedBudget(q_alpha_rad2_s3=4.93e-11, q_a_m2_s3=9.9e-15,
+    "symmetric": MatchedBudget(q_alpha_rad2_s3=1.70e-14, q_a_m2_s3=9.9e-15,
                                source="combina_matched_budget of COMBINA-symmetric, perturbed truth, 2 orbits, mean over 8 orbit phases"),
 }
+#: The axisymmetric filter's angular intensity (rad²/s³, :func:`estimators.combina.axisymmetric.axisymmetric_process_noise`):
+#: what a torque-free model leaves out of the perturbed truth, the whole gravity gradient
+#: (``combina_matched_budget(target, gravity_gradient=False)``), in both worlds (README, issue 31).
+AXISYMMETRIC_Q_ALPHA = {"asymmetric": 1.38e-12, "symmetric": 4.93e-11}
 
 
 def process_noise(target: str, world: str = "perturbed"):
-    """``(Q_s(dt_s) or None, Q_a(dt_s))``: the translational and attitude filters' process noise from ``target``'s budget in
-    ``world`` (the truth physics the user says the target is in).
+    """``(Q_s(dt_s) or None, Q_a(dt_s) or None)``: the translational and attitude filters' process noise from ``target``'s
+    budget in ``world`` (the truth physics the user says the target is in).
 
-    In the torque-free world the translational model (eq. 9) is the truth's relative motion, so it has nothing to cover: no
-    process noise (None, the paper's; with the budget's 9.9e-15 m²/s³ its memory of ~2300 s made it conservative late in an
-    orbit: NEES in band on 53 % of the epochs over the benchmark's 30 runs, 47 % below). The attitude filter keeps its budget
-    in both worlds: with a rate noise 5000× smaller it is over-confident even on the torque-free truth (README, issue 31)."""
+    In the torque-free world both models (eqs 9 and 29) are the truth's motion, so they have nothing to cover: no process
+    noise (None, the paper's). With the budget's 9.9e-15 m²/s³ the translational filter's memory of ~2300 s made it
+    conservative late in an orbit (NEES in band on 53 % of the epochs over the benchmark's 30 runs, 47 % below); with the
+    perturbed world's 1.38e-12 rad²/s³ the attitude filter was conservative throughout (5 % in band, 95 % below). In orbit
+    each model carries what the servicer knows (its own orbit with J2, the gravity gradient about its radial direction) and
+    the budget covers the rest; ``k`` gets no random walk (``k_rate_per_s = 0``): the inertia is constant and the refits
+    (:class:`estimators.combina.acquisition.LearningRefits`) fit the same deterministic model."""
     budget = COMBINA_BUDGETS[target]
-    Q_s = None if get_truth_physics(world).torque_free else partial(translational_process_noise, budget=budget)
-    return Q_s, partial(attitude_process_noise, budget=budget)
+    if get_truth_physics(world).torque_free:
+        return None, None
+    return partial(translational_process_noise, budget=budget), partial(attitude_process_noise, budget=budget, k_rate_per_s=0.0)
 
 
 SOURCES = ("simulated", "rendered")
@@ -342,6 +351,7 @@ class CombinaRun:
     reacquisitions: int = 0  #: times the attitude filter was restarted from the measurements (:meth:`_ClosedLoop.reacquire`)
     translation_restarts: int = 0  #: times the translational filter was restarted from the measurements (:meth:`_ClosedLoop._restart_translation`)
     acquisition_time_s: float | None = None  #: when the attitude filter restarted from the batch acquisition (:meth:`_ClosedLoop._acquire`; None: never)
+    attitude_refits: int = 0  #: times the attitude filter restarted from a refit of its initial state while it learned k (:meth:`_ClosedLoop._refit`)
     prior_rate_rad_s: float | None = None  #: the spin prior's rate (None without a prior)
     model_T: np.ndarray | None = None  #: (N, 3) m, the coarse model the source registers against (rendered chain)
     #: (n, 2) [t (s), roll discrepancy] of the geometric symmetry test (rendered chain; NaN: the cloud did not count,
@@ -434,8 +444,10 @@ class _ClosedLoop:
         self.Q_s, self.Q_a = process_noise(cfg.target, cfg.truth)
         self.orbit = chaser_orbit(cfg.truth, truth)
         self.trans = TranslationalUKF(x0_s, self.P0_s, n_rad_s=N_RAD_S, R_t_m=R_T_M, units=UNITS, Q=self.Q_s, orbit=self.orbit, t0_s=float(truth.t[0]))
-        self.att = AttitudeUKF(self.x0_a, self.P0_a, Q=self.Q_a, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
+        self.att = self._attitude_filter(self.x0_a, self.P0_a, float(truth.t[0]))
         self.arc: list[tuple[float, np.ndarray]] | None = []  # the acquisition window's measured attitudes (None once acquired or given up)
+        self.refits: LearningRefits | None = None  # the attitude filter's refits while it learns k (from its acquisition or restart)
+        self.n_refits = 0
         self.acquisition_attempts = 0
         self.acquisition_time_s: float | None = None
         self.model_T = getattr(source, "model_T", None)
@@ -570,11 +582,38 @@ class _ClosedLoop:
         self.gates.append(g)
         self.rejected_a = 0 if g.accepted else self.rejected_a + 1
         if g.accepted:
-            return True, self.att.correct(inn)
+            switched = self.att.correct(inn)
+            if self.refits is not None:
+                self.refits.add(ti, m.q_IT)
+                if self.refits.due(self.att.P):
+                    self._refit(ti)
+            return True, switched
         if self.rejected_a >= MAX_CONSECUTIVE_REJECTIONS:
             self.att.core.reset_covariance(np.diag(np.maximum(np.diag(self.att.P), np.diag(self.P0_a))))
+            self._start_refits(ti)
             self.rejected_a = 0
         return False, False
+
+    def _attitude_filter(self, x0, P0, t0_s: float) -> AttitudeUKF:
+        """The attitude UKF started from ``(x0, P0)`` at ``t0_s``, with the run's process noise and, in orbit, the gravity gradient."""
+        return AttitudeUKF(x0, P0, Q=self.Q_a, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS, orbit=self.orbit, t0_s=t0_s)
+
+    def _start_refits(self, t0_s: float, fitted_x0=None) -> None:
+        """A new window of :class:`estimators.combina.acquisition.LearningRefits` from the attitude filter's state at ``t0_s``."""
+        self.refits = LearningRefits(t0_s, self.att.x, self.att.P, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted_x0=fitted_x0, orbit=self.orbit)
+
+    def _refit(self, ti: float) -> None:
+        """Restart the attitude filter from the refit of its window's initial state, predicted through the window's epochs to ``ti``."""
+        a = self.refits.refit(self.att.x)
+        if a is None:
+            return
+        self.att = self._attitude_filter(a.x, a.P, a.t_s)
+        t_prev = a.t_s
+        for tj in self.refits.t_s:
+            if tj > t_prev:
+                self.att.predict(tj - t_prev)
+                t_prev = tj
+        self.n_refits += 1
 
     def _lost(self) -> bool:
         """The attitude filter has lost the target: a rate less certain than two measurements make it, or too many recent rejections
@@ -619,8 +658,8 @@ class _ClosedLoop:
         w, sd_w = measured
         k = self.att.x[6:8]
         P = np.diag(np.concatenate([np.diag(self.R_a), [sd_w**2] * 3, np.diag(self.P0_a)[6:8]]))
-        self.att = AttitudeUKF(np.concatenate([quat_to_mrp(self.last_att_meas[-1][1]), w, k]), P, Q=self.Q_a, iterations=ATT_ITERATIONS,
-                               physical=PHYSICAL_SIGMA_POINTS)
+        self.att = self._attitude_filter(np.concatenate([quat_to_mrp(self.last_att_meas[-1][1]), w, k]), P, self.last_att_meas[-1][0])
+        self._start_refits(self.last_att_meas[-1][0])
         self.att_rejections = []
         self.reacquisitions += 1
 
@@ -631,11 +670,19 @@ class _ClosedLoop:
         if len(self.arc) < ACQUISITION_MEASUREMENTS:
             return
         t, q = (np.array(v) for v in zip(*self.arc))
-        a = acquire_attitude(t, q, 4.0 * float(np.sqrt(self.R_a[0, 0])), self.x0_a, self.P0_a, 0.0)
+        a = acquire_attitude(t, q, 4.0 * float(np.sqrt(self.R_a[0, 0])), self.x0_a, self.P0_a, float(self.truth.t[0]), orbit=self.orbit)
         self.acquisition_attempts += 1
         if a is not None and a.fits():
-            self.att = AttitudeUKF(a.x, a.P, Q=self.Q_a, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS)
-            self.att.predict(ti - a.t_s)  # the initial state's posterior, carried to now by the filter's own unscented prediction
+            self.att = self._attitude_filter(a.x, a.P, a.t_s)
+            self.refits = LearningRefits(a.t_s, self.x0_a, self.P0_a, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted_x0=a.x, orbit=self.orbit)
+            for (tj, qj), used in zip(self.arc, a.used):
+                if used:
+                    self.refits.add(tj, qj)
+            t_prev = a.t_s
+            for tj, _ in self.arc:  # the initial state's posterior, carried to now by the filter's own unscented prediction
+                if tj > t_prev:
+                    self.att.predict(tj - t_prev)
+                    t_prev = tj
             self.att_rejections, self.rejected_a = [], 0
             self.arc, self.acquisition_time_s = None, ti
         elif self.acquisition_attempts >= ACQUISITION_ATTEMPTS:
@@ -651,6 +698,7 @@ class _ClosedLoop:
         (Σ 1/(n(n+1)) = 1) instead of n/σ², which made a 2σ-biased prior pull ω off.
         """
         self.proxy_updates += 1
+        self.refits = None  # the refits fit measured attitudes only: they would drop the prior's rate
         var = self.proxy_updates * (self.proxy_updates + 1) * (self.cfg.prior_error * self.prior_rate) ** 2
         self.att.correct(self.att.rate_proxy_innovation(self.prior_rate, var))
 
@@ -682,7 +730,7 @@ class _ClosedLoop:
         """The finished run."""
         return CombinaRun(config=self.cfg, truth=self.truth, measurements=self.meas, steps=self.steps, gates=self.gates, symmetry=self.checks,
                           switch_time_s=self.switch_time, C_GammaI=self.C_GammaI, iteration_s=self.iteration_s, registration_s=self.registration_s,
-                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s,
+                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s, attitude_refits=self.n_refits,
                           translation_restarts=self.translation_restarts,
                           prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
                           roll_discrepancies=np.array(self.roll_discrepancies).reshape(-1, 2))
@@ -726,7 +774,7 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: 
         g0, var_g = float(np.linalg.norm(w0_T_rad_s)), P0_SCALED / TU**2
     x0 = [float(phi0), float(delta0), g0]
     P0 = np.diag([P0_SCALED, P0_SCALED, var_g])
-    budget = COMBINA_BUDGETS[cfg.target]
+    budget = replace(COMBINA_BUDGETS[cfg.target], q_alpha_rad2_s3=AXISYMMETRIC_Q_ALPHA[cfg.target])
     if cfg.axis_frame == "known":
         return AxisymmetricUKF(x0, P0, C_GammaI=C, Q=partial(axisymmetric_process_noise, budget=budget, gamma_over_a_rad_s=g0)), C
     sd = np.deg2rad(5.0)

@@ -23,15 +23,14 @@ steps, with a Student-t interval over runs; the worst run's. Gate: rate of nomin
 ``gate_confidence`` bound (rejected; nominal ``1 − gate_confidence``) and below the lower two-sided bound (nominal
 ``(1 − gate_confidence)/2``, counted, never rejected), Wilson intervals; the misaligned outliers the gate let through.
 
-Both truths with one process noise: the filters' ``Q`` covers what their models leave out of the perturbed truth
-(:data:`studies.sim.combina.COMBINA_BUDGETS`). On the torque-free truth there is nothing to cover, and a filter whose ``Q``
-has set its memory (90–230 s for the attitude filters, against runs of an orbit) is conservative by a fixed amount: its
-expected NEES per state tends to 1/2 (eq. 4 of :mod:`estimators.process_noise`, the steady-state filter of a double
-integrator, for any ``q/r``), below the band of the mean of 30 runs (``[0.81, 1.22]`` for 6 states). The rate-like states
-(``v``, ``ω``, ``Γ/A``) carry most of it (1/4 of their variance is what the measurements leave), the measured ones (``r``,
-``δσ``, ``φ``, ``δ``) little. The translational filter models what a servicer knows of its own orbit in orbit
-(:func:`studies.sim.combina.chaser_orbit`), which leaves it a drag of 3e-9 m/s² to cover: its memory, ~2300 s, is a
-large part of an orbit, so on the torque-free truth it approaches eq. 4's 1/2 only late in a run.
+Process noise (:func:`studies.sim.combina.process_noise`): in orbit each filter's ``Q`` covers what its model leaves out of
+the perturbed truth (:data:`studies.sim.combina.COMBINA_BUDGETS`; the attitude filter models the gravity gradient there);
+in the torque-free world the translational and attitude models are the truth's motion and have none. The axisymmetric
+filter's model has no torque, and it keeps the gravity gradient's budget in both worlds
+(:data:`studies.sim.combina.AXISYMMETRIC_Q_ALPHA`): on the torque-free truth a filter whose ``Q`` has set its memory is
+conservative by a fixed amount, its expected NEES per state tending to 1/2 (eq. 4 of :mod:`estimators.process_noise`, the
+steady-state filter of a double integrator, for any ``q/r``), below the band of the mean of 30 runs (``[0.81, 1.22]`` for 6
+states); the rate-like states (``Γ/A``) carry most of it.
 """
 
 from __future__ import annotations

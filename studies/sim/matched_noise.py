@@ -164,15 +164,17 @@ COMBINA_PHASES_RAD = tuple(float(u) for u in np.arange(8) * np.pi / 8)
 COMBINA_ORBITS = 2.0
 
 
-def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "perturbed", orbits: float = COMBINA_ORBITS) -> tuple:
+def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "perturbed", orbits: float = COMBINA_ORBITS, *,
+                         gravity_gradient: bool = True) -> tuple:
     """``(τ, a_L (n, 3) m/s², α_T (n, 3) rad/s²)``: the one-step errors of CoMBiNa's process models along ``target``'s truth.
 
     At the closed loop's step ``τ`` (:class:`studies.sim.combina.CombinaConfig`'s rate): ``a_L`` is what the translational
     filter's model in that world (:func:`studies.sim.combina.chaser_orbit`: eq. 9 in the torque-free world, the relative motion
     about the chaser's own orbit with J2 in orbit; integrated as the filter does) leaves out of the LVLH relative velocity,
     ``α_T`` what eq. 29 with the target's own
-    inertia ratios (:func:`estimators.combina.attitude.propagate_rigid_body`, as the attitude filter integrates it) leaves out
-    of the body rate, each per unit time. On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
+    inertia ratios (:func:`estimators.combina.attitude.propagate_rigid_body`, as the attitude filter integrates it; in orbit
+    with the gravity-gradient torque about the chaser's radial direction, as the filter has it since 2026-12-02, unless
+    ``gravity_gradient`` is False: the axisymmetric filter's torque-free model) leaves out of the body rate, each per unit time. On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
     rad/s²); on the perturbed one, gravity gradient, J2, drag and damping.
     """
     from estimators.combina.attitude import propagate_rigid_body
@@ -191,11 +193,16 @@ def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "p
     else:
         Y = np.array([orbit.propagate_relative(x, t, tau) for x, t in zip(X[:-1], tr.t[:-1])])
     Z = np.concatenate([tr.q_IT, tr.w_T, np.broadcast_to(tr.k, (tr.t.size, 2))], axis=1)
-    W = propagate_rigid_body(Z[:-1], tau)
+    gg = None
+    if orbit is not None and gravity_gradient:  # in orbit the attitude filter's model has the gravity gradient (AttitudeUKF(orbit=)), at each step's mid-time
+        g, r_I = zip(*(orbit.gravity_gradient(t + 0.5 * tau) for t in tr.t[:-1]))
+        gg = (np.array(g), np.array(r_I))
+    W = propagate_rigid_body(Z[:-1], tau, gravity_gradient=gg)
     return tau, (X[1:, 3:] - Y[:, 3:]) / tau, (Z[1:, 4:7] - W[:, 4:7]) / tau
 
 
-def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS) -> MatchedBudget:
+def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS, *,
+                           gravity_gradient: bool = True) -> MatchedBudget:
     """The intensities of CoMBiNa's process noise for ``target``: eq. 3 of :mod:`estimators.process_noise` on the spectra of
     :func:`combina_model_errors` at each of ``phases_rad``, averaged over them. Deterministic.
 
@@ -206,14 +213,15 @@ def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=C
 
     Matched to the closed loop's measurements (the simulated registration's own noise, :class:`perception.simulated_bcpd.SimulatedBCPD`,
     every step ``τ``): ``r = σ_r² τ`` (position, m² s) and ``r = σ_a² τ`` (attitude angle, rad² s). ``q_kdot_1_s`` is 0: the inertia
-    ratios are constant in the truth (the damping is a torque, in ``α_T``).
+    ratios are constant in the truth (the damping is a torque, in ``α_T``). ``gravity_gradient``: the attitude model has it in
+    orbit (:func:`combina_model_errors`).
     """
     from perception.simulated_bcpd import SimulatedBCPD
 
     source = SimulatedBCPD(np.random.default_rng(0))
     q = []
     for u in phases_rad:
-        tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits)
+        tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits, gravity_gradient=gravity_gradient)
         q.append([matched_intensity(*_axis_psd(alpha_T, tau), source.attitude_sigma_rad**2 * tau),
                   matched_intensity(*_axis_psd(a_L, tau), source.position_sigma_m**2 * tau)])
     q_alpha, q_a = np.mean(q, axis=0)
