@@ -286,6 +286,9 @@ def _checked_arc(t_s, q_IT_meas, attitude_sigma_rad: float, x0, P0, t0_s: float,
 REFIT_FACTOR = 2.0
 #: and none is made once a fit has put that 1-σ below this (the UKF's own linearisation is then accurate).
 REFIT_STOP_SD_K = 0.01
+#: nor before the window holds as many measurements as an acquisition (:meth:`AttitudeAcquisition.fits` counts the
+#: measurements' 3 n degrees of freedom, not the prior's 8, which matters only for a few).
+MIN_REFIT_MEASUREMENTS = 4
 
 
 class LearningRefits:
@@ -311,7 +314,7 @@ class LearningRefits:
     (the torque-free truth, or the model of the truth's torques the filter carries).
     """
 
-    def __init__(self, t0_s: float, x0, P0, attitude_sigma_rad: float, *, fitted_x0=None, factor: float = REFIT_FACTOR,
+    def __init__(self, t0_s: float, x0, P0, attitude_sigma_rad: float, *, fitted: AttitudeAcquisition | None = None, factor: float = REFIT_FACTOR,
                  stop_sd_k: float = REFIT_STOP_SD_K, max_nfev: int = 60, max_step_s: float = 1.0, max_angle_rad: float = 0.1, orbit=None):
         self.t0_s = float(t0_s)
         self.x0 = np.asarray(x0, dtype=float)
@@ -321,15 +324,16 @@ class LearningRefits:
         if not (np.isfinite(factor) and factor > 1 and np.isfinite(stop_sd_k) and stop_sd_k > 0):
             raise ValueError(f"factor must exceed 1 and stop_sd_k be positive; got {factor!r}, {stop_sd_k!r}")
         self.sigma = float(attitude_sigma_rad)
-        self.fitted = self.x0.copy() if fitted_x0 is None else np.asarray(fitted_x0, dtype=float)  # the last fit's x at t0_s
         self.factor, self.stop_sd_k, self.max_nfev = float(factor), float(stop_sd_k), int(max_nfev)
         self.steps = (max_step_s, max_angle_rad)
         self.orbit = orbit
-        self.sd_k_fit = _sd_k(self.P0)
+        # the last fit (the acquisition the window starts from, if any): its x at t0_s, k's 1-σ and number of measurements
+        self.fitted = self.x0.copy() if fitted is None else fitted.x.copy()
+        self.sd_k_fit = _sd_k(self.P0 if fitted is None else fitted.P)
+        self.n_fitted = 0 if fitted is None else int(fitted.used.size)
         self.t_s: list[float] = []
         self.q_IT: list[np.ndarray] = []
         self.n_fits = 0
-        self.n_fitted = 0  # measurements in the last fit
 
     def add(self, t_s: float, q_IT_meas) -> None:
         """A measured attitude the filter accepted at ``t_s``."""
@@ -338,7 +342,7 @@ class LearningRefits:
 
     def due(self, P_filter) -> bool:
         """Whether the filter (its covariance ``P_filter``) has learned enough ``k`` since the last fit for a new one."""
-        if len(self.t_s) < 2 or self.sd_k_fit <= self.stop_sd_k:
+        if len(self.t_s) < MIN_REFIT_MEASUREMENTS or self.sd_k_fit <= self.stop_sd_k:
             return False
         return _sd_k(P_filter) <= self.sd_k_fit / self.factor or len(self.t_s) >= self.factor * self.n_fitted
 

@@ -598,9 +598,9 @@ class _ClosedLoop:
         """The attitude UKF started from ``(x0, P0)`` at ``t0_s``, with the run's process noise and, in orbit, the gravity gradient."""
         return AttitudeUKF(x0, P0, Q=self.Q_a, iterations=ATT_ITERATIONS, physical=PHYSICAL_SIGMA_POINTS, orbit=self.orbit, t0_s=t0_s)
 
-    def _start_refits(self, t0_s: float, fitted_x0=None) -> None:
+    def _start_refits(self, t0_s: float) -> None:
         """A new window of :class:`estimators.combina.acquisition.LearningRefits` from the attitude filter's state at ``t0_s``."""
-        self.refits = LearningRefits(t0_s, self.att.x, self.att.P, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted_x0=fitted_x0, orbit=self.orbit)
+        self.refits = LearningRefits(t0_s, self.att.x, self.att.P, 4.0 * float(np.sqrt(self.R_a[0, 0])), orbit=self.orbit)
 
     def _refit(self, ti: float) -> None:
         """Restart the attitude filter from the refit of its window's initial state, predicted through the window's epochs to ``ti``."""
@@ -674,7 +674,7 @@ class _ClosedLoop:
         self.acquisition_attempts += 1
         if a is not None and a.fits():
             self.att = self._attitude_filter(a.x, a.P, a.t_s)
-            self.refits = LearningRefits(a.t_s, self.x0_a, self.P0_a, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted_x0=a.x, orbit=self.orbit)
+            self.refits = LearningRefits(a.t_s, self.x0_a, self.P0_a, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted=a, orbit=self.orbit)
             for (tj, qj), used in zip(self.arc, a.used):
                 if used:
                     self.refits.add(tj, qj)
