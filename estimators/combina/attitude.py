@@ -6,8 +6,10 @@ State ``x_a = [σ_IT, ω_T, k1, k2]`` (8): the MRP of the target's attitude
 own principal axes (rad/s), and the inertia ratios ``k1 = ln(A/B)``,
 ``k2 = ln(B/C)`` (eqs 26–27). Process model: the attitude kinematics of
 eq. 28 (integrated in quaternion form, see below) and torque-free Euler
-equations (eq. 29) with ``k̇ = 0`` plus process noise; measurement: the
-attitude (eq. 30, as an error MRP).
+equations (eq. 29) with ``k̇ = 0`` plus process noise — in orbit (lcnav's, issue 31)
+with the gravity-gradient torque about the servicer's own radial direction, whose
+angular acceleration has Euler's own coefficients (:func:`_rigid_body_rk4_nb`);
+measurement: the attitude (eq. 30, as an error MRP).
 
 How the attitude is carried (the paper's global MRP fails on fast tumblers):
 
@@ -79,7 +81,10 @@ def attitude_process_noise(dt_s: float, budget: MatchedBudget, *, k_rate_per_s: 
       torque-free model (eq. 29) is only an approximation. With 1e-4, a 3 s step adds 3e-8, i.e. a 1-σ wander of 0.008
       over an orbit (5,800 s) — far below the 0.1 tolerance of the studies. With the budget's ``q`` on ``ω`` it changes
       nothing measurable on the eq. 47 target (k's NEES over an orbit, 10 runs per truth: the same to 0.02 with and
-      without it); without process noise on ``ω``, 1e-5 left k's final NEES over 10 seeds above its χ² band.
+      without it); without process noise on ``ω``, 1e-5 left k's final NEES over 10 seeds above its χ² band. The closed loop
+      (:func:`studies.sim.combina.process_noise`) passes 0 since the UKF's own over-confidence while it learns ``k`` is
+      mended by refits (:class:`estimators.combina.acquisition.LearningRefits`): a random walk there made the late ``k``
+      conservative (its NEES per state 0.2–0.3 at the end of an orbit).
     """
     if not (np.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")

@@ -11,11 +11,12 @@ measurement model's own covariance when the source states it (the simulated
 BCPD: 0.3 m per axis, 2° per axis, i.e. ``R_a = (2°/4)² I`` on the error MRP);
 the paper's ``R_s = R_a = 0.01 I`` (scaled: 1.2 m and a 23° attitude error,
 4× and 11× the simulated noise) is kept only for the rendered chain, whose
-noise is not modelled. Process noise: both filters' from the target's disturbance budget
-(:data:`COMBINA_BUDGETS`, :func:`estimators.combina.attitude.attitude_process_noise`,
-:func:`estimators.combina.translation.translational_process_noise`), none on the translation in the torque-free
-world, whose eq. 9 is exact there (:func:`process_noise`). In orbit (``truth = "perturbed"``) the translational
-filter propagates about the chaser's own orbit with J2 (:func:`chaser_orbit`). A filter that
+noise is not modelled. In orbit (``truth = "perturbed"``) the translational
+filter propagates about the chaser's own orbit with J2 (:func:`chaser_orbit`) and the attitude filter's model has the
+target's gravity-gradient torque about the chaser's radial direction (``AttitudeUKF(orbit=)``); process noise from the
+target's disturbance budget of what those models leave out (:data:`COMBINA_BUDGETS`,
+:func:`estimators.combina.attitude.attitude_process_noise`, :func:`estimators.combina.translation.translational_process_noise`).
+In the torque-free world eqs 9 and 29 are exact and neither filter has process noise (:func:`process_noise`). A filter that
 rejects ``MAX_CONSECUTIVE_REJECTIONS`` measurements in a row has its
 covariance reset to ``P_0`` (divergence recovery); the translational filter is
 restarted instead from the last measured positions when three consecutive
@@ -33,7 +34,10 @@ it, or most of its recent measurements rejected while the symmetry detector's
 discrepancies do not point to a symmetric target) is restarted from the last
 measured attitudes (:meth:`_ClosedLoop.reacquire`): at fast rates a wrong ``k``
 turns one 3 s prediction by tens of degrees, the Gaussian posterior can lock
-onto a wrong (ω, k) mode, and the ``P_0`` reset keeps that mean.
+onto a wrong (ω, k) mode, and the ``P_0`` reset keeps that mean. From its acquisition (or restart) the attitude filter
+restarts again from batch refits of its initial state while it learns ``k``
+(:class:`estimators.combina.acquisition.LearningRefits`, :meth:`_ClosedLoop._refit`): its one-step Gaussian updates of
+``(ω, k)`` are over-confident while ``k`` is uncertain, and a slow tumbler shows ``k`` only over thousands of seconds.
 
 Symmetry: the temporal test of §IV.C (:class:`estimators.combina.symmetry.SymmetryDetector`,
 fed the filter's integrated relative-rotation prediction and its uncertainty)
@@ -145,9 +149,9 @@ ROLL_WINDOW = 5
 #: gravity-gradient torque about the chaser's radial direction (:class:`estimators.combina.attitude.AttitudeUKF`'s ``orbit``),
 #: which leaves 2.60e-16 rad²/s³ on the box-wing (3e-10 rad/s² RMS: the nutation damping and the target's offset from the
 #: chaser) and 1.70e-14 on the rocket body; without it (2026-11-29) 1.38e-12 and 4.93e-11 (the gravity gradient, 6e-8 and
-#: 5.2e-7 rad/s²), over-confident once the filter had learned ``k`` (26 % of the epochs above the band over 30 runs) until the
-#: refits of :class:`estimators.combina.acquisition.LearningRefits` mended the UKF's own over-confidence while it learns
-#: ``k``. The axisymmetric filter's model (eqs 35–40, a fixed ``Γ``) has no torque: :data:`AXISYMMETRIC_Q_ALPHA`.
+#: 5.2e-7 rad/s²). The small budget became usable once the refits of :class:`estimators.combina.acquisition.LearningRefits`
+#: mended most of the UKF's own over-confidence while it learns ``k`` (README, issue 31). The axisymmetric filter's model
+#: (eqs 35–40, a fixed ``Γ``) has no torque: :data:`AXISYMMETRIC_Q_ALPHA`.
 COMBINA_BUDGETS = {
     "asymmetric": MatchedBudget(q_alpha_rad2_s3=2.60e-16, q_a_m2_s3=9.9e-15,
                                 source="combina_matched_budget of COMBINA-asymmetric, perturbed truth, 2 orbits, mean over 8 orbit phases"),
@@ -730,7 +734,8 @@ class _ClosedLoop:
         """The finished run."""
         return CombinaRun(config=self.cfg, truth=self.truth, measurements=self.meas, steps=self.steps, gates=self.gates, symmetry=self.checks,
                           switch_time_s=self.switch_time, C_GammaI=self.C_GammaI, iteration_s=self.iteration_s, registration_s=self.registration_s,
-                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s, attitude_refits=self.n_refits,
+                          proxy_updates=self.proxy_updates, reacquisitions=self.reacquisitions, acquisition_time_s=self.acquisition_time_s,
+                          attitude_refits=self.n_refits,
                           translation_restarts=self.translation_restarts,
                           prior_rate_rad_s=self.prior_rate, model_T=self.model_T,
                           roll_discrepancies=np.array(self.roll_discrepancies).reshape(-1, 2))

@@ -174,7 +174,8 @@ def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "p
     ``α_T`` what eq. 29 with the target's own
     inertia ratios (:func:`estimators.combina.attitude.propagate_rigid_body`, as the attitude filter integrates it; in orbit
     with the gravity-gradient torque about the chaser's radial direction, as the filter has it since 2026-12-02, unless
-    ``gravity_gradient`` is False: the axisymmetric filter's torque-free model) leaves out of the body rate, each per unit time. On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
+    ``gravity_gradient`` is False: the axisymmetric filter's torque-free model) leaves out of the body rate, each per unit time.
+    On the torque-free truth both are the integrators' round-off (1e-10 m/s², 1e-15
     rad/s²); on the perturbed one, gravity gradient, J2, drag and damping.
     """
     from estimators.combina.attitude import propagate_rigid_body
