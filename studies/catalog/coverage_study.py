@@ -151,7 +151,7 @@ def execute(spec: RunSpec, workdir: Path) -> dict:
         "diverged": False, "failure": "", "converged": all(ok.values()),
         "converged_per_epoch": all(ok_epoch.values()), "converged_joint": all(ok_joint.values()),
         "symmetry_detected": run.switch_time_s is not None, "reacquisitions": run.reacquisitions, "acquisition_time_s": run.acquisition_time_s,
-        "translation_restarts": run.translation_restarts,
+        "translation_restarts": run.translation_restarts, "attitude_refits": run.attitude_refits,
         "translation_ok": ok["translation"], "attitude_ok": ok.get("axisymmetric", ok.get("attitude", False)),
         "final_position_error_m": float(np.linalg.norm(last.x_s[:3] - truth.r_L[-1])),
         "final_attitude_error_deg": float(np.rad2deg(attitude_angle(mrp_to_quat(last.x_a[:3]), truth.q_IT[-1]))) if last.mode == "nominal" else None,

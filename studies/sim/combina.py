@@ -925,6 +925,7 @@ def combina_metrics(run: CombinaRun) -> dict:
         "gate_counts": counts,
         "shadow_switches": int(sum(s.shadow_switch for s in run.steps)),
         "proxy_updates": run.proxy_updates,
+        "attitude_refits": run.attitude_refits,
     }
     if run.switch_time_s is not None:
         last = run.steps[-1]
