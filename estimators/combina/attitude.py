@@ -182,11 +182,11 @@ def _rigid_body_rk4_nb(Y, h, n_sub, g, r_I):
                 d[j, 2] = 0.5 * (q3 * w0 + q0 * w1 - q1 * w2)
                 d[j, 3] = 0.5 * (-q2 * w0 + q1 * w1 + q0 * w2)
                 t0, t1, t2 = w1 * w2, w2 * w0, w0 * w1
-                if gr != 0.0:
-                    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-                    bx = ((1.0 - 2.0 * (q2 * q2 + q3 * q3) / n2) * ex + 2.0 * (q1 * q2 + q0 * q3) / n2 * ey + 2.0 * (q1 * q3 - q0 * q2) / n2 * ez)
-                    by = (2.0 * (q1 * q2 - q0 * q3) / n2 * ex + (1.0 - 2.0 * (q1 * q1 + q3 * q3) / n2) * ey + 2.0 * (q2 * q3 + q0 * q1) / n2 * ez)
-                    bz = (2.0 * (q1 * q3 + q0 * q2) / n2 * ex + 2.0 * (q2 * q3 - q0 * q1) / n2 * ey + (1.0 - 2.0 * (q1 * q1 + q2 * q2) / n2) * ez)
+                if gr != 0.0:  # r = R(q)ᵀ r_I, with the stage's quaternion normalised (a factor 2/|q|²)
+                    f = 2.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+                    bx = (1.0 - f * (q2 * q2 + q3 * q3)) * ex + f * (q1 * q2 + q0 * q3) * ey + f * (q1 * q3 - q0 * q2) * ez
+                    by = f * (q1 * q2 - q0 * q3) * ex + (1.0 - f * (q1 * q1 + q3 * q3)) * ey + f * (q2 * q3 + q0 * q1) * ez
+                    bz = f * (q1 * q3 + q0 * q2) * ex + f * (q2 * q3 - q0 * q1) * ey + (1.0 - f * (q1 * q1 + q2 * q2)) * ez
                     t0 -= gr * by * bz
                     t1 -= gr * bz * bx
                     t2 -= gr * bx * by

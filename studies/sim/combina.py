@@ -611,13 +611,18 @@ class _ClosedLoop:
         a = self.refits.refit(self.att.x)
         if a is None:
             return
+        self._restart_attitude(a, self.refits.t_s)
+        self.n_refits += 1
+
+    def _restart_attitude(self, a, epochs_s) -> None:
+        """The attitude filter restarted from a batch fit ``a`` of its initial state (acquisition or refit) and carried by its own
+        unscented prediction through ``epochs_s`` (the measurement epochs since ``a.t_s``, the last one now)."""
         self.att = self._attitude_filter(a.x, a.P, a.t_s)
         t_prev = a.t_s
-        for tj in self.refits.t_s:
+        for tj in epochs_s:
             if tj > t_prev:
                 self.att.predict(tj - t_prev)
                 t_prev = tj
-        self.n_refits += 1
 
     def _lost(self) -> bool:
         """The attitude filter has lost the target: a rate less certain than two measurements make it, or too many recent rejections
@@ -677,16 +682,11 @@ class _ClosedLoop:
         a = acquire_attitude(t, q, 4.0 * float(np.sqrt(self.R_a[0, 0])), self.x0_a, self.P0_a, float(self.truth.t[0]), orbit=self.orbit)
         self.acquisition_attempts += 1
         if a is not None and a.fits():
-            self.att = self._attitude_filter(a.x, a.P, a.t_s)
             self.refits = LearningRefits(a.t_s, self.x0_a, self.P0_a, 4.0 * float(np.sqrt(self.R_a[0, 0])), fitted=a, orbit=self.orbit)
             for (tj, qj), used in zip(self.arc, a.used):
                 if used:
                     self.refits.add(tj, qj)
-            t_prev = a.t_s
-            for tj, _ in self.arc:  # the initial state's posterior, carried to now by the filter's own unscented prediction
-                if tj > t_prev:
-                    self.att.predict(tj - t_prev)
-                    t_prev = tj
+            self._restart_attitude(a, [tj for tj, _ in self.arc])
             self.att_rejections, self.rejected_a = [], 0
             self.arc, self.acquisition_time_s = None, ti
         elif self.acquisition_attempts >= ACQUISITION_ATTEMPTS:
