@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from studies.sim.combina import AXISYMMETRIC_Q_ALPHA, COMBINA_BUDGETS
+from studies.sim.combina import COMBINA_BUDGETS
 from studies.sim.combina_consistency import SETTLING_S, combina_consistency
 
 RUNS = int(os.environ.get("LCNAV_BENCH_COMBINA_RUNS", "30"))
@@ -61,9 +61,9 @@ def run() -> str:
         "(`estimators.combina.acquisition.LearningRefits`); process noise from `COMBINA_BUDGETS` in orbit, none in the torque-free world "
         f"(q_a = {COMBINA_BUDGETS['asymmetric'].q_a_m2_s3:.3g} m²/s³; "
         f"q_α = {COMBINA_BUDGETS['asymmetric'].q_alpha_rad2_s3:.3g} / "
-        f"{COMBINA_BUDGETS['symmetric'].q_alpha_rad2_s3:.3g} rad²/s³, box-wing / rocket body); the axisymmetric filter's "
-        f"q_α = {AXISYMMETRIC_Q_ALPHA['asymmetric']:.3g} / {AXISYMMETRIC_Q_ALPHA['symmetric']:.3g} rad²/s³ "
-        "(its model has no torque) in both worlds; developed on seeds 500–529. "
+        f"{COMBINA_BUDGETS['symmetric'].q_alpha_rad2_s3:.3g} rad²/s³, box-wing / rocket body); the rocket body's axisymmetric filter "
+        "has the gravity gradient turning Γ in its model in orbit and estimates k1 = ln(A/B) (`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`, "
+        "the rocket body's q_α on Γ/A and on Γ's tilt), and eqs 35–40 without process noise in the torque-free world; developed on seeds 500–529. "
         f"Statistics from {SETTLING_S:.0f} s after each filter starts (the axisymmetric filter: its run's symmetry switch). "
         "NEES in band: epochs whose mean NEES over the runs with one lies in the two-sided 95 % band of that many χ²(dof); "
         "NEES/dof: per-run mean, 95 % t interval over runs, and the worst run's. NIS: of the nominal registrations only (the "
@@ -80,13 +80,11 @@ def run() -> str:
     lines += ["", "| target | truth | source | dof | nominal registrations | NIS in band (%) | NIS/dof [95 % CI] | gate rejected (%) "
               "| NIS low (%) | misaligned accepted |", "|---|---|---|---|---|---|---|---|---|---|"]
     lines += [_source_row(r, name, s) for r in rows for name, s in r["sources"].items()]
-    lines += ["", "Torque-free rows: the attitude filters keep the process noise of the perturbed truth's budget, with no disturbance to "
-              "cover. A steady-state filter whose `Q` sets its memory (here 90–230 s, against an orbit) has an expected NEES per state of 1/2 "
-              "on a truth without the disturbance its `Q` is matched to (eq. 4 of `estimators.process_noise`), below the band of the mean of "
-              "30 runs; the rate-like states (`ω`, `Γ/A`) carry most of it. With a rate noise 5000× smaller (2.6e-16 rad²/s³, what eq. 29 "
-              "leaves once the gravity gradient is modelled) the attitude filter is over-confident even on the torque-free truth "
-              "(development seeds 500–529: NEES/dof 1.41, 55 % of the epochs above the band, the `k` block 1.4–1.9 over the first 2700 s): "
-              "its own approximation while `k` is uncertain, which the budget covers. "
+    lines += ["", "Torque-free rows: no filter has process noise there. Until 2026-12-02 the axisymmetric filter kept the orbit's budget "
+              "(4.93e-11 rad²/s³) in the torque-free world too: NEES/dof 0.32 [0.31, 0.34], every epoch below the band, as eq. 4 of "
+              "`estimators.process_noise` predicts for a `Q` matched to a disturbance the truth lacks (an expected NEES per state of 1/2 "
+              "in steady state, the rate-like `Γ/A` carrying most of it). The box-wing's attitude filter is over-confident early in the "
+              "torque-free runs while `k` is still uncertain (joint NEES/dof 1.7–1.9 between refits, 300–900 s). "
               "Perturbed rocket body: its gravity gradient (A/C = 4, a tumble at the orbit rate) turns Γ by 40–50° and changes |ω| by up to "
               "30 % within an orbit — far outside the axisymmetric model (precession about a fixed Γ in the fixed frame I_Γ), whose "
               "(φ, δ) chart is singular at δ = ±90°, where the tilted cone then passes."]

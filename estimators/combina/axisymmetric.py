@@ -39,34 +39,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from estimators.attitude import dcm_to_mrp, mrp_to_dcm
 from estimators.combina.unscented import Innovation, UnscentedCore
 from estimators.dynamics import axis_from_spherical, axisymmetric_rhs, spherical_from_axis
 from estimators.process_noise import MatchedBudget
-
-
-def axisymmetric_process_noise(dt_s: float, budget: MatchedBudget, gamma_over_a_rad_s: float, n_states: int = 3) -> np.ndarray:
-    """``Q`` (n_states × n_states) of one prediction over ``dt_s`` for ``[φ, δ, Γ/A(, σ_IΓ)]`` from the disturbance budget.
-
-    Eqs 35–40 hold ``Γ`` constant; an unmodelled torque (gravity gradient: an angular acceleration ``α = τ/A`` of matched
-    intensity ``q = budget.q_alpha_rad2_s3`` per axis, :mod:`estimators.process_noise` eq. 3) changes ``Γ/A`` at ``α`` along
-    ``Γ`` and turns ``Γ`` at ``α/(Γ/A)`` across it, which tilts the precession cone of ``J`` about the fixed ``I_Γ`` by as
-    much. Both enter as random walks: ``Q_ΓΓ = q τ`` and ``Q_φφ = Q_δδ = q τ / (Γ/A)²`` — an order-of-magnitude map of the
-    cone's tilt onto the two angles (``φ``'s own ``1/cos δ`` is left out), stated as such. ``σ_IΓ`` is a constant of the
-    model: no noise.
-    """
-    if not (np.isfinite(dt_s) and dt_s > 0):
-        raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
-    if not (np.isfinite(gamma_over_a_rad_s) and gamma_over_a_rad_s > 0):
-        raise ValueError(f"gamma_over_a_rad_s: {gamma_over_a_rad_s!r}: expected a positive, finite precession rate in rad/s")
-    if n_states not in (3, 6):
-        raise ValueError(f"n_states: {n_states!r}: expected 3 (I_Γ known) or 6 (I_Γ estimated)")
-    qt = budget.q_alpha_rad2_s3 * dt_s
-    Q = np.zeros((n_states, n_states))
-    Q[0, 0] = Q[1, 1] = qt / gamma_over_a_rad_s**2
-    Q[2, 2] = qt
-    return Q
 
 
 def wrap_pi(a):
@@ -83,10 +61,17 @@ def chart_difference(phi_a, delta_a, phi_b, delta_b) -> tuple[np.ndarray, np.nda
     angles that differ by up to π. Of the two branches, each wrapped to ``[−π, π)``, the one with the smaller
     ``Δφ² + Δδ²`` is returned.
     """
-    d1 = wrap_pi(np.subtract(phi_a, phi_b)), wrap_pi(np.subtract(delta_a, delta_b))
-    d2 = wrap_pi(np.subtract(phi_a, phi_b) - np.pi), wrap_pi(np.subtract(delta_a, np.pi) + delta_b)
+    phi_n, delta_n = nearest_representative(phi_b, delta_b, phi_a, delta_a)
+    return np.subtract(phi_a, phi_n), np.subtract(delta_a, delta_n)
+
+
+def nearest_representative(phi, delta, phi_ref, delta_ref) -> tuple[np.ndarray, np.ndarray]:
+    """Of the two charts of the direction ``(φ, δ)`` — itself and ``(φ + π, π − δ)`` (:func:`chart_difference`) — the one
+    nearest to ``(φ_ref, δ_ref)``, each angle within π of the reference's (rad)."""
+    d1 = wrap_pi(np.subtract(phi, phi_ref)), wrap_pi(np.subtract(delta, delta_ref))
+    d2 = wrap_pi(np.subtract(phi, phi_ref) + np.pi), wrap_pi(np.pi - np.add(delta, delta_ref))
     second = d2[0] ** 2 + d2[1] ** 2 < d1[0] ** 2 + d1[1] ** 2
-    return np.where(second, d2[0], d1[0]), np.where(second, d2[1], d1[1])
+    return np.add(phi_ref, np.where(second, d2[0], d1[0])), np.add(delta_ref, np.where(second, d2[1], d1[1]))
 
 
 def gamma_frame_dcm(Gamma_I, J_I=None) -> np.ndarray:
@@ -170,9 +155,8 @@ class AxisymmetricUKF:
 
     def __init__(self, x0, P0, *, C_GammaI=None, max_step_s: float = 5.0, Q=None, alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
         x0 = np.asarray(x0, dtype=float)
-        n = 3 if C_GammaI is not None else 6
+        n, layout = self._layout(C_GammaI)
         if x0.shape != (n,):
-            layout = "[phi, delta, gamma_over_a]" if n == 3 else "[phi, delta, gamma_over_a, sigma_IGamma]"
             raise ValueError(f"x0 must have shape ({n},) {layout}, got {x0.shape}")
         if not (np.isfinite(max_step_s) and max_step_s > 0):
             raise ValueError(f"max_step_s must be positive and finite, got {max_step_s!r}")
@@ -180,6 +164,11 @@ class AxisymmetricUKF:
         self.core = UnscentedCore(x0, P0, alpha=alpha, beta=beta, kappa=kappa, residual_x=_residual_azimuth_first)
         self.max_step_s = float(max_step_s)
         self.Q = Q if Q is None or callable(Q) else np.asarray(Q, dtype=float)
+
+    @staticmethod
+    def _layout(C_GammaI) -> tuple[int, str]:
+        """The state's size and layout given ``C_GammaI`` (or None)."""
+        return (3, "[phi, delta, gamma_over_a]") if C_GammaI is not None else (6, "[phi, delta, gamma_over_a, sigma_IGamma]")
 
     @property
     def x(self) -> np.ndarray:
@@ -223,15 +212,30 @@ class AxisymmetricUKF:
         Q = self.Q(dt_s) if callable(self.Q) else self.Q
         self.core.predict(lambda X: self._propagate(X, dt_s), Q=Q, mean_fn=_mean_azimuth_first)
 
+    def axes_I(self, X) -> np.ndarray:
+        """The symmetry axes ``J`` (n, 3) in ``I`` of sigma points ``X`` (n, l): ``C_IΓ J_Γ`` in each point's frame."""
+        return (axis_from_spherical(X[:, 0], X[:, 1])[:, None, :] @ self.frame_dcm(X))[:, 0, :]
+
     def h(self, X) -> np.ndarray:
         """Eq. 41: sigma points to the azimuth and elevation of ``J`` in ``I``."""
-        J_G = axis_from_spherical(X[:, 0], X[:, 1])
-        if self.C_GammaI is not None:
-            J_I = J_G @ self.C_GammaI  # C_IΓ J_Γ, row-wise
-        else:
-            J_I = np.einsum("nij,nj->ni", mrp_to_dcm(X[:, 3:6]), J_G)
-        phi_I, delta_I = spherical_from_axis(J_I)
+        phi_I, delta_I = spherical_from_axis(self.axes_I(X))
         return np.stack([phi_I, delta_I], axis=1)
+
+    def axis_chart(self) -> tuple[np.ndarray, np.ndarray]:
+        """``([φ, δ, Γ/A], P)`` of the symmetry axis in the mean frame ``frame_dcm()`` — what eqs 42–45 and the scoring read.
+
+        With ``C_GammaI`` known the first three states. A frame that is itself estimated has each sigma point's ``(φ, δ)`` in
+        that point's own frame, so the axis's coordinates in the mean frame carry the frame's uncertainty too: taken here by
+        the unscented transform of ``J`` in ``I`` (:meth:`axes_I`) into the mean frame, each azimuth on the branch nearest to
+        the point's own (:func:`nearest_representative`)."""
+        if self.C_GammaI is not None:
+            return self.core.x[:3].copy(), self.core.P[:3, :3].copy()
+        X = self.core.points.sigma_points(self.core.x, self.core.P)
+        phi, delta = spherical_from_axis(self.axes_I(X) @ self.frame_dcm().T)
+        Y = np.stack([*nearest_representative(phi, delta, X[:, 0], X[:, 1]), X[:, 2]], axis=1)
+        m = _mean_azimuth_first(Y, self.core.points.Wm)
+        dY = _residual_azimuth_first(Y, m[None, :])
+        return m, (self.core.points.Wc[:, None] * dY).T @ dY
 
     def innovation(self, J_I_meas, var_rad2: float) -> Innovation:
         """Eqs 41, 15–17, 23 for a measured symmetry axis ``J_I_meas`` (second row of ``C_TI``).
@@ -252,8 +256,106 @@ class AxisymmetricUKF:
         self.core.x[0] = float(wrap_pi(self.core.x[0]))
 
     def spin_quantities(self) -> SpinQuantities:
-        """Eqs 42–45 for the current estimate."""
-        return spin_quantities(self.core.x, self.core.P)
+        """Eqs 42–45 for the current estimate (:meth:`axis_chart`)."""
+        return spin_quantities(*self.axis_chart())
+
+
+def _turn_between(a, b) -> np.ndarray:
+    """Rotation vectors (n, 3) of the smallest rotations taking the unit vectors ``a`` to ``b`` (n, 3): about ``a × b``."""
+    c = np.cross(a, b)
+    s = np.linalg.norm(c, axis=-1, keepdims=True)
+    angle = np.arctan2(s, np.sum(a * b, axis=-1, keepdims=True))
+    return np.where(s > 0.0, c / np.where(s > 0.0, s, 1.0) * angle, 0.0)
+
+
+def orbit_process_noise(dt_s: float, budget: MatchedBudget, gamma_over_a_rad_s: float) -> np.ndarray:
+    """``Q`` (6, 6) of one prediction of :class:`AxisymmetricOrbitUKF` over ``dt_s``: what its model still leaves out, an angular
+    acceleration of intensity ``q = budget.q_alpha_rad2_s3`` per axis, drives ``L = Γ/A`` — along it ``Q_ΓΓ = q τ``, across it the
+    tilt of ``Γ``'s direction ``Q_ττ = q τ / (Γ/A)²`` per component (random walks); ``(φ, δ)`` and ``k1`` get none."""
+    if not (np.isfinite(dt_s) and dt_s > 0):
+        raise ValueError(f"dt_s: {dt_s!r}: expected a positive, finite step in s")
+    if not (np.isfinite(gamma_over_a_rad_s) and gamma_over_a_rad_s > 0):
+        raise ValueError(f"gamma_over_a_rad_s: {gamma_over_a_rad_s!r}: expected a positive, finite precession rate in rad/s")
+    qt = budget.q_alpha_rad2_s3 * dt_s
+    return np.diag([0.0, 0.0, qt, qt / gamma_over_a_rad_s**2, qt / gamma_over_a_rad_s**2, 0.0])
+
+
+class AxisymmetricOrbitUKF(AxisymmetricUKF):
+    """The axisymmetric mode in orbit: eqs 35–40 with the target's gravity-gradient torque turning ``Γ``.
+
+    Eqs 35–40 hold ``Γ`` fixed; in orbit the gravity gradient turns it (the rocket body's by 40–50° per orbit). For a body
+    with ``A = C`` and symmetry axis ``J`` (moment ``B``) the motion is exactly
+
+        J̇ = L × J,        L̇ = 3 (μ/R³) (B/A − 1) (R̂·J) (R̂ × J),        L = Γ/A,
+
+    the first because ``ω = Γ/A + (1/B − 1/A)(Γ·J) J``, the second the torque ``3 (μ/R³) R̂ × (I R̂)`` with
+    ``I = A 1 + (B − A) J Jᵀ``; ``R̂`` and ``μ/R³`` are the chaser's (its own orbit, :meth:`ChaserOrbit.gravity_gradient`, for
+    the target a few tens of metres away). ``B/A = e^{−k1}`` with ``k1 = ln(A/B)`` (Renis et al. eq. 18), a state: the
+    registrations of a symmetric target do not give it, the turning of ``Γ`` does.
+
+    State ``[φ, δ, Γ/A, τ_i, τ_k, k1]``: the axis in the chart of eqs 39–40 about the frame ``I_Γ`` of this sigma point,
+    ``Γ/A = |L|``, and that frame's tilt from the reference frame ``C_ref`` (``C_ΓI``): the rotation vector
+    ``τ_i i + τ_k k`` (the reference's axes in I), which turns ``j`` onto ``Γ`` by the smallest rotation. Each prediction
+    integrates every sigma point's ``(J, L)`` (RK4) and moves the reference to the central point's turned frame, so the
+    mean tilt stays near zero however far ``Γ`` turns; ``I_Γ`` then follows ``Γ`` without turning about it.
+    """
+
+    def __init__(self, x0, P0, *, C_GammaI, orbit, t0_s: float, max_step_s: float = 5.0, Q=None, alpha: float = 1.0, beta: float = 2.0,
+                 kappa: float = 0.0):
+        super().__init__(x0, P0, C_GammaI=C_GammaI, max_step_s=max_step_s, Q=Q, alpha=alpha, beta=beta, kappa=kappa)
+        if not np.isfinite(t0_s):
+            raise ValueError(f"t0_s: {t0_s!r}: expected a finite time in s")
+        self.C_ref, self.C_GammaI = self.C_GammaI, None
+        self.orbit, self.t_s = orbit, float(t0_s)
+
+    @staticmethod
+    def _layout(C_GammaI) -> tuple[int, str]:
+        if C_GammaI is None:
+            raise ValueError("C_GammaI: the reference frame I_Γ at the start is required")
+        return 6, "[phi, delta, gamma_over_a, tilt_i, tilt_k, k1]"
+
+    def frame_dcm(self, x=None) -> np.ndarray:
+        """``C_ΓI`` of ``x`` (its tilt from ``C_ref``); of the estimate without ``x``."""
+        x = self.core.x if x is None else np.asarray(x, dtype=float)
+        tilt = x[..., 3, None] * self.C_ref[0] + x[..., 4, None] * self.C_ref[2]
+        R = Rotation.from_rotvec(tilt.reshape(-1, 3)).as_matrix().reshape(tilt.shape[:-1] + (3, 3))  # turns I_Γ,ref into I_Γ, in I
+        return self.C_ref @ np.swapaxes(R, -1, -2)  # C_ΓI = C_ΓI,ref Rᵀ
+
+    def _propagate(self, X, dt):
+        g, r_I = self.orbit.gravity_gradient(self.t_s + 0.5 * dt)  # held over the step: R̂ turns by n dt (3 mrad at 3 s)
+        C = self.frame_dcm(X)
+        J, L = self.axes_I(X), X[:, 2, None] * C[:, 1, :]
+        beta = np.exp(-X[:, 5]) - 1.0
+
+        def rhs(J, L):
+            return np.cross(L, J), (g * beta * (J @ r_I))[:, None] * np.cross(r_I, J)
+
+        n_sub = max(1, int(np.ceil(dt / self.max_step_s)))
+        h = dt / n_sub
+        for _ in range(n_sub):
+            k1 = rhs(J, L)
+            k2 = rhs(J + 0.5 * h * k1[0], L + 0.5 * h * k1[1])
+            k3 = rhs(J + 0.5 * h * k2[0], L + 0.5 * h * k2[1])
+            k4 = rhs(J + h * k3[0], L + h * k3[1])
+            J = J + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+            L = L + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+        J /= np.linalg.norm(J, axis=1, keepdims=True)
+        g_over_a = np.linalg.norm(L, axis=1)
+        j = L / g_over_a[:, None]
+        # the reference: the central point's frame turned with its Γ
+        R0 = Rotation.from_rotvec(_turn_between(C[0, 1][None, :], j[:1])[0]).as_matrix()
+        self.C_ref = C[0] @ R0.T
+        tilt = _turn_between(np.broadcast_to(self.C_ref[1], j.shape), j)
+        Y = np.column_stack([np.zeros(len(X)), np.zeros(len(X)), g_over_a, tilt @ self.C_ref[0], tilt @ self.C_ref[2], X[:, 5]])
+        phi, delta = spherical_from_axis(np.einsum("nij,nj->ni", self.frame_dcm(Y), J))  # J in each point's frame: C_ΓI J
+        Y[:, 0], Y[:, 1] = nearest_representative(phi, delta, X[:, 0], X[:, 1])
+        Y[:, 0] = wrap_pi(Y[:, 0])
+        return Y
+
+    def predict(self, dt_s: float) -> None:
+        """Eqs 10–13 with the model above over ``dt_s`` seconds; the filter's clock moves on."""
+        super().predict(dt_s)
+        self.t_s += float(dt_s)
 
 
 def frame_mrp(C_GammaI) -> np.ndarray:

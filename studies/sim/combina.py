@@ -84,7 +84,7 @@ import numpy as np
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
 from estimators.combina.acquisition import LearningRefits, acquire_attitude
 from estimators.combina.attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
-from estimators.combina.axisymmetric import AxisymmetricUKF, axisymmetric_process_noise, chart_difference, frame_mrp, gamma_frame_dcm
+from estimators.combina.axisymmetric import AxisymmetricOrbitUKF, AxisymmetricUKF, orbit_process_noise, chart_difference, frame_mrp, gamma_frame_dcm
 from estimators.combina.gates import mahalanobis_gate, scale_gate
 from estimators.combina.own_orbit import ChaserOrbit
 from estimators.combina.translation import ScaledUnits, TranslationalUKF, translational_process_noise
@@ -150,19 +150,15 @@ ROLL_WINDOW = 5
 #: which leaves 2.60e-16 rad²/s³ on the box-wing (3e-10 rad/s² RMS: the nutation damping and the target's offset from the
 #: chaser) and 1.70e-14 on the rocket body; without it (2026-11-29) 1.38e-12 and 4.93e-11 (the gravity gradient, 6e-8 and
 #: 5.2e-7 rad/s²). The small budget became usable once the refits of :class:`estimators.combina.acquisition.LearningRefits`
-#: mended most of the UKF's own over-confidence while it learns ``k`` (README, issue 31). The axisymmetric filter's model
-#: (eqs 35–40, a fixed ``Γ``) has no torque: :data:`AXISYMMETRIC_Q_ALPHA`.
+#: mended most of the UKF's own over-confidence while it learns ``k`` (README, issue 31). The rocket body's axisymmetric filter
+#: in orbit (:class:`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`) has the same gravity gradient in its model and
+#: takes the same residual (:func:`estimators.combina.axisymmetric.orbit_process_noise`).
 COMBINA_BUDGETS = {
     "asymmetric": MatchedBudget(q_alpha_rad2_s3=2.60e-16, q_a_m2_s3=9.9e-15,
                                 source="combina_matched_budget of COMBINA-asymmetric, perturbed truth, 2 orbits, mean over 8 orbit phases"),
     "symmetric": MatchedBudget(q_alpha_rad2_s3=1.70e-14, q_a_m2_s3=9.9e-15,
                                source="combina_matched_budget of COMBINA-symmetric, perturbed truth, 2 orbits, mean over 8 orbit phases"),
 }
-#: The axisymmetric filter's angular intensity in orbit (rad²/s³, :func:`estimators.combina.axisymmetric.axisymmetric_process_noise`):
-#: what a torque-free model leaves out of the perturbed truth, the whole gravity gradient
-#: (``combina_matched_budget(target, gravity_gradient=False)``; README, issue 31). None in the torque-free world
-#: (:func:`axisymmetric_noise`).
-AXISYMMETRIC_Q_ALPHA = {"asymmetric": 1.38e-12, "symmetric": 4.93e-11}
 
 
 def process_noise(target: str, world: str = "perturbed"):
@@ -180,20 +176,6 @@ def process_noise(target: str, world: str = "perturbed"):
     if get_truth_physics(world).torque_free:
         return None, None
     return partial(translational_process_noise, budget=budget), partial(attitude_process_noise, budget=budget, k_rate_per_s=0.0)
-
-
-def axisymmetric_noise(target: str, world: str, gamma_over_a_rad_s: float, n_states: int):
-    """The axisymmetric filter's ``Q(dt_s)`` for ``target`` in ``world``, or None.
-
-    Eqs 35–40 (precession of the symmetry axis about a fixed ``Γ`` at ``Γ/A``) are the torque-free motion of an
-    axisymmetric body: in the torque-free world the model is the truth's motion and has nothing to cover (measured on the
-    consistency benchmark's 30 runs: with the orbit's budget there NEES/dof 0.32, every epoch below the band, eq. 4 of
-    :mod:`estimators.process_noise`). In orbit the model leaves out the whole gravity gradient,
-    :data:`AXISYMMETRIC_Q_ALPHA`, mapped onto the state by :func:`estimators.combina.axisymmetric.axisymmetric_process_noise`."""
-    if get_truth_physics(world).torque_free:
-        return None
-    budget = replace(COMBINA_BUDGETS[target], q_alpha_rad2_s3=AXISYMMETRIC_Q_ALPHA[target])
-    return partial(axisymmetric_process_noise, budget=budget, gamma_over_a_rad_s=gamma_over_a_rad_s, n_states=n_states)
 
 
 SOURCES = ("simulated", "rendered")
@@ -573,7 +555,7 @@ class _ClosedLoop:
             self.C_post_fed = quat_to_dcm(self.att.q_IT).T
         if self.detector.detected or (self.roll_test is not None and self.roll_test.detected):
             self.switch_time = ti
-            self.axi, self.C_GammaI = _start_axisymmetric(self.cfg, self.truth, i, self._measured_axis(), self.x0_a[OMEGA], self.rng)
+            self.axi, self.C_GammaI = _start_axisymmetric(self.cfg, self.truth, i, self._measured_axis(), self.x0_a[OMEGA], self.rng, self.orbit)
         return switched
 
     def _measured_axis(self) -> np.ndarray:
@@ -738,7 +720,8 @@ class _ClosedLoop:
             C, Pax = np.full((3, 3), np.nan), np.full((3, 3), np.nan)
         else:
             xa, sda, Pa = _nan(8), _nan(8), np.full((8, 8), np.nan)
-            xax, sdax, ax_I, C, Pax = axi.x[:3].copy(), np.sqrt(np.diag(axi.P))[:3], axi.axis_I(), axi.frame_dcm().copy(), axi.P[:3, :3].copy()
+            xax, Pax = axi.axis_chart()
+            sdax, ax_I, C = np.sqrt(np.diag(Pax)), axi.axis_I(), axi.frame_dcm().copy()
             sq = axi.spin_quantities()
             se, ssd = sq.x_e, np.sqrt(np.diag(sq.P_e))
         self.steps.append(Step(t=ti, mode="nominal" if axi is None else "axisymmetric", x_s=trans.x, sd_s=np.sqrt(np.diag(trans.P)), x_a=xa, sd_a=sda,
@@ -769,7 +752,8 @@ def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
     return quat_multiply(rotvec_to_quat(ang * axis), q_ref)
 
 
-def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: np.ndarray, w0_T_rad_s: np.ndarray, rng: np.random.Generator):
+def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: np.ndarray, w0_T_rad_s: np.ndarray, rng: np.random.Generator,
+                        orbit: ChaserOrbit | None = None):
     """Initialise the axisymmetric filter at the switch (§V.C).
 
     ``I_Γ`` is built about the true angular momentum (the paper's known-input
@@ -782,6 +766,8 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: 
     current ``|ω̂|``: on a symmetric target it has been fed registrations with a random roll about the axis (§V.B), and
     its rate can be anything by the switch (seed 1010 of the consistency benchmark, torque-free truth: 0.22 rad/s against
     ``Γ/A`` = 1.0e-3 rad/s, 660 σ of ``P_0``; the filter rejected nearly every axis measurement for the rest of the orbit).
+    In orbit (``orbit``, the chaser's own, :func:`chaser_orbit`) the filter is :func:`_start_in_orbit`'s; in the torque-free
+    world eqs 35–40 are the truth's motion and it has no process noise.
     """
     Gamma_I = angular_momentum_I(truth.q_IT[i], truth.w_T[i], truth.J_T)
     C = gamma_frame_dcm(Gamma_I, J_meas_I)
@@ -794,8 +780,10 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: 
         g0, var_g = float(np.linalg.norm(w0_T_rad_s)), P0_SCALED / TU**2
     x0 = [float(phi0), float(delta0), g0]
     P0 = np.diag([P0_SCALED, P0_SCALED, var_g])
+    if orbit is not None:
+        return _start_in_orbit(cfg, truth, i, J_meas_I, C, x0, P0, orbit, rng)
     if cfg.axis_frame == "known":
-        return AxisymmetricUKF(x0, P0, C_GammaI=C, Q=axisymmetric_noise(cfg.target, cfg.truth, g0, 3)), C
+        return AxisymmetricUKF(x0, P0, C_GammaI=C), C
     sd = np.deg2rad(5.0)
     dq = rotvec_to_quat(sd * rng.normal(size=3))
     C_guess = quat_to_dcm(dq) @ C
@@ -804,7 +792,27 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: 
     P0f = np.zeros((6, 6))
     P0f[:3, :3] = P0
     P0f[3:, 3:] = (2.0 * sd / 4.0) ** 2 * np.eye(3)  # MRP ≈ θ/4; 1-σ set to twice the drawn error's
-    return AxisymmetricUKF(np.concatenate([[float(phi0), float(delta0), g0], sig0]), P0f, Q=axisymmetric_noise(cfg.target, cfg.truth, g0, 6)), C_guess
+    return AxisymmetricUKF(np.concatenate([[float(phi0), float(delta0), g0], sig0]), P0f), C_guess
+
+
+def _start_in_orbit(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: np.ndarray, C: np.ndarray, x0, P0, orbit: ChaserOrbit,
+                    rng: np.random.Generator):
+    """The axisymmetric filter in orbit (:class:`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`), from ``(φ, δ, Γ/A)`` and
+    their ``P0`` as the torque-free filter's: ``k1 = ln(A/B)`` drawn from eq. 48's ``P_0`` about the target's, and the frame
+    ``C`` (about the true ``Γ``) known — a tilt variance of 1e-10 rad² — or, with ``axis_frame = "estimated"``, tilted by a draw
+    of 5° (1σ per component) with that variance."""
+    sd = np.deg2rad(5.0) if cfg.axis_frame == "estimated" else 1e-5
+    tilt = sd * rng.normal(size=2)
+    C = C @ quat_to_dcm(rotvec_to_quat(tilt[0] * C[0] + tilt[1] * C[2])).T  # C_ΓI of the frame turned by the tilt in I
+    phi0, delta0 = spherical_from_axis(C @ J_meas_I)
+    k1 = float(truth.k[0] + np.sqrt(P0_SCALED) * rng.normal())
+    P = np.zeros((6, 6))
+    P[:3, :3] = P0
+    P[3:5, 3:5] = sd**2 * np.eye(2)
+    P[5, 5] = P0_SCALED
+    Q = partial(orbit_process_noise, budget=COMBINA_BUDGETS[cfg.target], gamma_over_a_rad_s=x0[2])
+    axi = AxisymmetricOrbitUKF([float(phi0), float(delta0), x0[2], 0.0, 0.0, k1], P, C_GammaI=C, orbit=orbit, t0_s=float(truth.t[i]), Q=Q)
+    return axi, C
 
 
 # ---------------------------------------------------------------- errors and metrics

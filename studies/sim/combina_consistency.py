@@ -25,12 +25,11 @@ steps, with a Student-t interval over runs; the worst run's. Gate: rate of nomin
 
 Process noise (:func:`studies.sim.combina.process_noise`): in orbit each filter's ``Q`` covers what its model leaves out of
 the perturbed truth (:data:`studies.sim.combina.COMBINA_BUDGETS`; the attitude filter models the gravity gradient there);
-in the torque-free world the translational and attitude models are the truth's motion and have none. The axisymmetric
-filter's model has no torque, and it keeps the gravity gradient's budget in both worlds
-(:data:`studies.sim.combina.AXISYMMETRIC_Q_ALPHA`): on the torque-free truth a filter whose ``Q`` has set its memory is
+in the torque-free world the translational, attitude and axisymmetric models are the truth's motion and have none. The
+axisymmetric filter's model has no torque: in orbit its ``Q`` is the whole gravity gradient's budget
+(:func:`studies.sim.combina.axisymmetric_noise`). With that budget on the torque-free truth too (until 2026-12-02) it was
 conservative by a fixed amount, its expected NEES per state tending to 1/2 (eq. 4 of :mod:`estimators.process_noise`, the
-steady-state filter of a double integrator, for any ``q/r``), below the band of the mean of 30 runs (``[0.81, 1.22]`` for 6
-states); the rate-like states (``Γ/A``) carry most of it.
+steady-state filter of a double integrator, for any ``q/r``): 0.32 over the benchmark's 30 runs.
 """
 
 from __future__ import annotations

@@ -202,8 +202,7 @@ def combina_model_errors(target: str, arg_latitude_rad: float, physics: str = "p
     return tau, (X[1:, 3:] - Y[:, 3:]) / tau, (Z[1:, 4:7] - W[:, 4:7]) / tau
 
 
-def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS, *,
-                           gravity_gradient: bool = True) -> MatchedBudget:
+def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=COMBINA_PHASES_RAD, orbits: float = COMBINA_ORBITS) -> MatchedBudget:
     """The intensities of CoMBiNa's process noise for ``target``: eq. 3 of :mod:`estimators.process_noise` on the spectra of
     :func:`combina_model_errors` at each of ``phases_rad``, averaged over them. Deterministic.
 
@@ -214,7 +213,7 @@ def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=C
 
     Matched to the closed loop's measurements (the simulated registration's own noise, :class:`perception.simulated_bcpd.SimulatedBCPD`,
     every step ``τ``): ``r = σ_r² τ`` (position, m² s) and ``r = σ_a² τ`` (attitude angle, rad² s). ``q_kdot_1_s`` is 0: the inertia
-    ratios are constant in the truth (the damping is a torque, in ``α_T``). ``gravity_gradient``: the attitude model has it in
+    ratios are constant in the truth (the damping is a torque, in ``α_T``). The attitude model has the gravity gradient in
     orbit (:func:`combina_model_errors`).
     """
     from perception.simulated_bcpd import SimulatedBCPD
@@ -222,7 +221,7 @@ def combina_matched_budget(target: str, physics: str = "perturbed", phases_rad=C
     source = SimulatedBCPD(np.random.default_rng(0))
     q = []
     for u in phases_rad:
-        tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits, gravity_gradient=gravity_gradient)
+        tau, a_L, alpha_T = combina_model_errors(target, u, physics, orbits)
         q.append([matched_intensity(*_axis_psd(alpha_T, tau), source.attitude_sigma_rad**2 * tau),
                   matched_intensity(*_axis_psd(a_L, tau), source.position_sigma_m**2 * tau)])
     q_alpha, q_a = np.mean(q, axis=0)

@@ -125,3 +125,62 @@ def test_chart_difference_finds_the_same_axis_on_the_other_branch():
         d_phi, d_delta = chart_difference(phi_hat, delta_hat, phi, delta)
         np.testing.assert_allclose(d_phi, err[0], atol=1e-12)
         np.testing.assert_allclose(d_delta, err[1], atol=1e-12)  # in the estimate's own chart, where its covariance lives
+
+
+def test_orbit_model_follows_a_truth_with_only_the_gravity_gradient():
+    """In orbit (:class:`AxisymmetricOrbitUKF`) 3 s predictions of the symmetry axis, ``Γ/A`` and ``Γ``'s direction follow a
+    DOP853 truth of the A = C body whose only perturbation is its gravity-gradient torque on a two-body orbit, given that
+    orbit's samples: the axis and ``Γ`` within 1e-5 rad and ``Γ/A`` within 1e-5 of itself over 1200 s (measured at the end
+    3.1e-6 rad, 7.9e-7 rad, 1.8e-6), while the torque turns ``Γ`` by more than 0.1 rad. Eqs 35–40 from the same start (a fixed
+    ``Γ``) end more than 0.05 rad off."""
+    from estimators.combina.axisymmetric import AxisymmetricOrbitUKF
+    from estimators.combina.own_orbit import ChaserOrbit
+    from estimators.perturbations import TruthPhysics, integrate_perturbed
+
+    _, q0, w0, Gamma0_I, J0_I = _body(3, w_scale=1e-3)
+    r0, mu = 6.9e6, 3.986004418e14
+    y0 = np.concatenate([[r0, 0.0, 0.0, 0.0, np.sqrt(mu / r0) * 0.8, np.sqrt(mu / r0) * 0.6], q0, w0])
+    t = np.arange(0.0, 1200.0 + 1e-9, 3.0)
+    physics = TruthPhysics(name="gravity-gradient", gravity_gradient=True)
+    tr = integrate_perturbed(y0, t, J_AXI, physics.body_params("target", y0[:3]))
+    orbit = ChaserOrbit(t, np.concatenate([tr.r_I, tr.v_I], axis=1), n_rad_s=1e-3, j2=False)
+    C = gamma_frame_dcm(Gamma0_I, J0_I)
+    phi0, delta0 = spherical_from_axis(C @ J0_I)
+    g0 = np.linalg.norm(Gamma0_I) / J_AXI[0]
+    f = AxisymmetricOrbitUKF([phi0, delta0, g0, 0.0, 0.0, np.log(J_AXI[0] / J_AXI[1])], 1e-14 * np.eye(6), C_GammaI=C, orbit=orbit, t0_s=0.0)
+    free = AxisymmetricUKF([phi0, delta0, g0], 1e-14 * np.eye(3), C_GammaI=C)
+    for i in range(1, t.size):
+        f.predict(3.0)
+        free.predict(3.0)
+        R = quat_to_dcm(tr.q_IB[i])
+        Gamma_I = R @ (J_AXI * tr.w_B[i])
+        assert np.arccos(np.clip(R[:, 1] @ f.axis_I(), -1, 1)) < 1e-5
+        assert np.arccos(np.clip(Gamma_I @ f.frame_dcm()[1] / np.linalg.norm(Gamma_I), -1, 1)) < 1e-5
+        assert f.x[2] == pytest.approx(np.linalg.norm(Gamma_I) / J_AXI[0], rel=1e-5)
+    assert f.t_s == pytest.approx(t[-1])
+    assert np.arccos(np.clip(Gamma_I @ Gamma0_I / np.linalg.norm(Gamma_I) / np.linalg.norm(Gamma0_I), -1, 1)) > 0.1
+    assert np.arccos(np.clip(R[:, 1] @ free.axis_I(), -1, 1)) > 0.05
+
+
+def test_axis_chart_carries_the_frame_uncertainty():
+    """:meth:`AxisymmetricOrbitUKF.axis_chart`: the axis's ``(φ, δ)`` and ``Γ/A`` in the mean frame, by the unscented transform,
+    against 20 000 draws of the state mapped the same way (means within 2e-4 rad, covariances within 5 %); the frame's tilt of
+    0.02 rad more than doubles the variance of the chart's own 0.01 rad (measured 3.5×). With a known frame
+    :class:`AxisymmetricUKF` returns its first three states."""
+    from estimators.combina.axisymmetric import AxisymmetricOrbitUKF, nearest_representative
+
+    _, _, _, Gamma_I, J_I = _body(4)
+    C = gamma_frame_dcm(Gamma_I, J_I)
+    phi0, delta0 = spherical_from_axis(C @ J_I)
+    x0 = np.array([phi0 + 0.3, delta0 + 0.4, 1e-3, 0.0, 0.0, 1.0])
+    P0 = np.diag([1e-4, 1e-4, 1e-8, 4e-4, 4e-4, 0.1])
+    f = AxisymmetricOrbitUKF(x0, P0, C_GammaI=C, orbit=None, t0_s=0.0)
+    x, P = f.axis_chart()
+    X = np.random.default_rng(5).multivariate_normal(x0, P0, size=20000)
+    phi, delta = spherical_from_axis(f.axes_I(X) @ f.frame_dcm().T)
+    Y = np.column_stack([*nearest_representative(phi, delta, X[:, 0], X[:, 1]), X[:, 2]])
+    np.testing.assert_allclose(x, Y.mean(axis=0), rtol=0, atol=2e-4)
+    np.testing.assert_allclose(np.sqrt(np.diag(P)), Y.std(axis=0), rtol=0.05)
+    assert np.trace(P[:2, :2]) > 2.0 * np.trace(P0[:2, :2])
+    known = AxisymmetricUKF(x0[:3], P0[:3, :3], C_GammaI=C)
+    np.testing.assert_array_equal(known.axis_chart()[1], P0[:3, :3])
