@@ -24,6 +24,14 @@ reference sigma point. The measured azimuth's noise grows as ``1/cos δ``
 ``R = diag(s²/cos²δ̂, s²)`` with ``δ̂`` the predicted elevation — derived here,
 the paper gives ``R`` as a constant.
 
+In orbit (beyond the paper) the gravity gradient turns ``Γ`` — the rocket body's by 40–50° in one orbit — and eqs 35–40,
+which hold it fixed, were over-confident by 6× (NEES/dof 6.3 over 30 one-orbit runs) with the whole gravity gradient's
+budget as their process noise (4.93e-11 rad²/s³).
+:class:`AxisymmetricOrbitUKF` has that torque in its model: ``J`` and ``L = Γ/A`` are integrated together, ``B/A`` is
+estimated (as ``k1 = ln(A/B)``), and its frame ``I_Γ`` follows ``Γ`` (``[φ, δ, Γ/A, τ_i, τ_k, k1]``, the tilt ``τ`` of
+``I_Γ`` from a reference frame moved every prediction). :meth:`AxisymmetricUKF.axis_chart` gives the axis in the mean frame
+with the frame's uncertainty carried, which eqs 42–45 and the scoring read.
+
 Post-processing (eqs 42–45): ``e = (Γ/A)√(1 − sin²φ cos²δ)`` and
 ``(ω_y/A)² = (Γ/A)² − e² = (Γ/A)² sin²φ cos²δ`` with ``B = 1``, and their
 covariance ``J_F P J_Fᵀ`` with the analytic Jacobian.
