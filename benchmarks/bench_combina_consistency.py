@@ -62,7 +62,7 @@ def run() -> str:
         f"(q_a = {COMBINA_BUDGETS['asymmetric'].q_a_m2_s3:.3g} m²/s³; "
         f"q_α = {COMBINA_BUDGETS['asymmetric'].q_alpha_rad2_s3:.3g} / "
         f"{COMBINA_BUDGETS['symmetric'].q_alpha_rad2_s3:.3g} rad²/s³, box-wing / rocket body); the rocket body's axisymmetric filter "
-        "has the gravity gradient turning Γ in its model in orbit and estimates k1 = ln(A/B) (`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`, "
+        "has the gravity gradient turning Γ in its model in orbit and estimates B/A (`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`, "
         "the rocket body's q_α on Γ/A and on Γ's tilt), and eqs 35–40 without process noise in the torque-free world; developed on seeds 500–529. "
         f"Statistics from {SETTLING_S:.0f} s after each filter starts (the axisymmetric filter: its run's symmetry switch). "
         "NEES in band: epochs whose mean NEES over the runs with one lies in the two-sided 95 % band of that many χ²(dof); "
@@ -88,7 +88,7 @@ def run() -> str:
               "Perturbed rocket body: its gravity gradient (A/C = 4, a tumble at the orbit rate) turns Γ by 40–50° and changes |ω| by up to "
               "30 % within an orbit. Until 2026-12-02 the axisymmetric filter's model held Γ fixed (eqs 35–40, with the whole gravity "
               "gradient's 4.93e-11 rad²/s³ as process noise): NEES/dof 6.30 [3.27, 9.34], worst run 47, 15 % of the epochs in band (70 % "
-              "above), axis NIS in band 67 %, gate 3.4 %. Its model in orbit now has the torque turning Γ and estimates k1 = ln(A/B) "
+              "above), axis NIS in band 67 %, gate 3.4 %. Its model in orbit now has the torque turning Γ and estimates B/A "
               "(`AxisymmetricOrbitUKF`)."]
     diverged = {f"{r['target']}/{r['truth']}": r["diverged"] for r in rows if r["diverged"]}
     lines += ["", f"Runs stopped by a diverged filter: {diverged or 'none'}. Wall time {wall:.0f} s."]

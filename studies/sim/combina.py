@@ -798,20 +798,22 @@ def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: 
 def _start_in_orbit(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: np.ndarray, C: np.ndarray, x0, P0, orbit: ChaserOrbit,
                     rng: np.random.Generator):
     """The axisymmetric filter in orbit (:class:`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`), from ``(φ, δ, Γ/A)`` and
-    their ``P0`` as the torque-free filter's: ``k1 = ln(A/B)`` drawn from eq. 48's ``P_0`` about the target's, and the frame
+    their ``P0`` as the torque-free filter's: ``β = B/A − 1 = e^{−k1} − 1`` with ``k1 = ln(A/B)`` drawn from eq. 48's ``P_0``
+    about the target's (its variance carried to ``β`` to first order), and the frame
     ``C`` (about the true ``Γ``) known — a tilt variance of 1e-10 rad² — or, with ``axis_frame = "estimated"``, tilted by a draw
     of 5° (1σ per component) with that variance."""
     sd = np.deg2rad(5.0) if cfg.axis_frame == "estimated" else 1e-5
     tilt = sd * rng.normal(size=2)
     C = C @ quat_to_dcm(rotvec_to_quat(tilt[0] * C[0] + tilt[1] * C[2])).T  # C_ΓI of the frame turned by the tilt in I
     phi0, delta0 = spherical_from_axis(C @ J_meas_I)
-    k1 = float(truth.k[0] + np.sqrt(P0_SCALED) * rng.normal())
+    b_over_a = float(np.exp(-(truth.k[0] + np.sqrt(P0_SCALED) * rng.normal())))  # e^{−k1}, k1 = ln(A/B) drawn from eq. 48's P_0
     P = np.zeros((6, 6))
     P[:3, :3] = P0
     P[3:5, 3:5] = sd**2 * np.eye(2)
-    P[5, 5] = P0_SCALED
+    P[5, 5] = P0_SCALED * b_over_a**2  # k1's variance carried to B/A − 1 = e^{−k1} − 1
     Q = partial(orbit_process_noise, budget=COMBINA_BUDGETS[cfg.target], gamma_over_a_rad_s=x0[2])
-    axi = AxisymmetricOrbitUKF([float(phi0), float(delta0), x0[2], 0.0, 0.0, k1], P, C_GammaI=C, orbit=orbit, t0_s=float(truth.t[i]), Q=Q)
+    axi = AxisymmetricOrbitUKF([float(phi0), float(delta0), x0[2], 0.0, 0.0, b_over_a - 1.0], P, C_GammaI=C, orbit=orbit,
+                               t0_s=float(truth.t[i]), Q=Q)
     return axi, C
 
 
