@@ -25,11 +25,12 @@ steps, with a Student-t interval over runs; the worst run's. Gate: rate of nomin
 
 Process noise (:func:`studies.sim.combina.process_noise`): in orbit each filter's ``Q`` covers what its model leaves out of
 the perturbed truth (:data:`studies.sim.combina.COMBINA_BUDGETS`; the attitude filter models the gravity gradient there);
-in the torque-free world the translational, attitude and axisymmetric models are the truth's motion and have none. The
-axisymmetric filter's model has no torque: in orbit its ``Q`` is the whole gravity gradient's budget
-(:func:`studies.sim.combina.axisymmetric_noise`). With that budget on the torque-free truth too (until 2026-12-02) it was
-conservative by a fixed amount, its expected NEES per state tending to 1/2 (eq. 4 of :mod:`estimators.process_noise`, the
-steady-state filter of a double integrator, for any ``q/r``): 0.32 over the benchmark's 30 runs.
+in the torque-free world the translational, attitude and axisymmetric models are the truth's motion and have none. In
+orbit the rocket body's axisymmetric filter has the gravity gradient turning ``Γ`` in its model
+(:class:`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`) and the rocket body's residual budget. Until 2026-12-02
+its model held ``Γ`` fixed with the whole gravity gradient's budget as process noise in both worlds: over-confident in
+orbit (NEES/dof 6.3) and, on the torque-free truth, conservative by the fixed amount eq. 4 of :mod:`estimators.process_noise`
+predicts (an expected NEES per state of 1/2 in steady state, for any ``q/r``): 0.32 over the benchmark's 30 runs.
 """
 
 from __future__ import annotations
