@@ -202,14 +202,7 @@ class AxisymmetricUKF:
         return d if X.shape[1] == 3 else np.concatenate([d, np.zeros((X.shape[0], 3))], axis=1)
 
     def _propagate(self, X, dt):
-        n_sub = max(1, int(np.ceil(dt / self.max_step_s)))
-        h = dt / n_sub
-        for _ in range(n_sub):
-            k1 = self._rhs(X)
-            k2 = self._rhs(X + 0.5 * h * k1)
-            k3 = self._rhs(X + 0.5 * h * k2)
-            k4 = self._rhs(X + h * k3)
-            X = X + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        X = _rk4(self._rhs, X, dt, self.max_step_s)
         X[:, 0] = wrap_pi(X[:, 0])
         return X
 
@@ -268,8 +261,22 @@ class AxisymmetricUKF:
         return spin_quantities(*self.axis_chart())
 
 
-def _turn_between(a, b) -> np.ndarray:
-    """Rotation vectors (n, 3) of the smallest rotations taking the unit vectors ``a`` to ``b`` (n, 3): about ``a × b``."""
+def _rk4(rhs, Y, dt: float, max_step_s: float) -> np.ndarray:
+    """``Y`` (n, m) carried over ``dt`` by classical Runge–Kutta under ``Ẏ = rhs(Y)``, in equal steps of at most ``max_step_s``."""
+    n_sub = max(1, int(np.ceil(dt / max_step_s)))
+    h = dt / n_sub
+    for _ in range(n_sub):
+        k1 = rhs(Y)
+        k2 = rhs(Y + 0.5 * h * k1)
+        k3 = rhs(Y + 0.5 * h * k2)
+        k4 = rhs(Y + h * k3)
+        Y = Y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return Y
+
+
+def smallest_turn(a, b) -> np.ndarray:
+    """Rotation vectors ((n,) 3) of the smallest rotations taking the unit vectors ``a`` to ``b`` ((n,) 3): about ``a × b``
+    (zero where they are parallel)."""
     c = np.cross(a, b)
     s = np.linalg.norm(c, axis=-1, keepdims=True)
     angle = np.arctan2(s, np.sum(a * b, axis=-1, keepdims=True))
@@ -334,27 +341,19 @@ class AxisymmetricOrbitUKF(AxisymmetricUKF):
     def _propagate(self, X, dt):
         g, r_I = self.orbit.gravity_gradient(self.t_s + 0.5 * dt)  # held over the step: R̂ turns by n dt (3 mrad at 3 s)
         C = self.frame_dcm(X)
-        J, L = self.axes_I(X), X[:, 2, None] * C[:, 1, :]
 
-        def rhs(J, L):
-            return np.cross(L, J), (g * X[:, 5] * (J @ r_I))[:, None] * np.cross(r_I, J)
+        def rhs(JL):  # [J, L] (n, 6)
+            J, L = JL[:, :3], JL[:, 3:]
+            return np.concatenate([np.cross(L, J), (g * X[:, 5] * (J @ r_I))[:, None] * np.cross(r_I, J)], axis=1)
 
-        n_sub = max(1, int(np.ceil(dt / self.max_step_s)))
-        h = dt / n_sub
-        for _ in range(n_sub):
-            k1 = rhs(J, L)
-            k2 = rhs(J + 0.5 * h * k1[0], L + 0.5 * h * k1[1])
-            k3 = rhs(J + 0.5 * h * k2[0], L + 0.5 * h * k2[1])
-            k4 = rhs(J + h * k3[0], L + h * k3[1])
-            J = J + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-            L = L + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        J /= np.linalg.norm(J, axis=1, keepdims=True)
+        JL = _rk4(rhs, np.concatenate([self.axes_I(X), X[:, 2, None] * C[:, 1, :]], axis=1), dt, self.max_step_s)
+        J, L = JL[:, :3] / np.linalg.norm(JL[:, :3], axis=1, keepdims=True), JL[:, 3:]
         g_over_a = np.linalg.norm(L, axis=1)
         j = L / g_over_a[:, None]
         # the reference: the central point's frame turned with its Γ
-        R0 = Rotation.from_rotvec(_turn_between(C[0, 1][None, :], j[:1])[0]).as_matrix()
+        R0 = Rotation.from_rotvec(smallest_turn(C[0, 1], j[0])).as_matrix()
         self.C_ref = C[0] @ R0.T
-        tilt = _turn_between(np.broadcast_to(self.C_ref[1], j.shape), j)
+        tilt = smallest_turn(self.C_ref[1], j)
         Y = np.column_stack([np.zeros(len(X)), np.zeros(len(X)), g_over_a, tilt @ self.C_ref[0], tilt @ self.C_ref[2], X[:, 5]])
         phi, delta = spherical_from_axis(np.einsum("nij,nj->ni", self.frame_dcm(Y), J))  # J in each point's frame: C_ΓI J
         Y[:, 0], Y[:, 1] = nearest_representative(phi, delta, X[:, 0], X[:, 1])

@@ -84,7 +84,8 @@ import numpy as np
 from estimators.attitude import mrp_to_quat, quat_conjugate, quat_multiply, quat_to_dcm, quat_to_mrp, rotvec_to_quat
 from estimators.combina.acquisition import LearningRefits, acquire_attitude
 from estimators.combina.attitude import OMEGA, AttitudeUKF, attitude_process_noise, error_mrp_noise_covariance, rate_from_attitudes
-from estimators.combina.axisymmetric import AxisymmetricOrbitUKF, AxisymmetricUKF, orbit_process_noise, chart_difference, frame_mrp, gamma_frame_dcm
+from estimators.combina.axisymmetric import (AxisymmetricOrbitUKF, AxisymmetricUKF, chart_difference, frame_mrp, gamma_frame_dcm, orbit_process_noise,
+                                             smallest_turn)
 from estimators.combina.gates import mahalanobis_gate, scale_gate
 from estimators.combina.own_orbit import ChaserOrbit
 from estimators.combina.translation import ScaledUnits, TranslationalUKF, translational_process_noise
@@ -745,11 +746,7 @@ def _attitude_with_axis(J_I, q_ref) -> np.ndarray:
     In axisymmetric mode only the symmetry axis is estimated; this is the seed
     attitude a registration needs (its roll about the axis is immaterial).
     """
-    y = quat_to_dcm(q_ref)[:, 1]
-    c = np.cross(y, J_I)
-    ang = np.arctan2(np.linalg.norm(c), float(y @ J_I))
-    axis = c / np.linalg.norm(c) if np.linalg.norm(c) > 0 else np.zeros(3)
-    return quat_multiply(rotvec_to_quat(ang * axis), q_ref)
+    return quat_multiply(rotvec_to_quat(smallest_turn(quat_to_dcm(q_ref)[:, 1], J_I)), q_ref)
 
 
 def _start_axisymmetric(cfg: CombinaConfig, truth: LvlhTruth, i: int, J_meas_I: np.ndarray, w0_T_rad_s: np.ndarray, rng: np.random.Generator,
