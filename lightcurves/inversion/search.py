@@ -1083,21 +1083,42 @@ def _workers(workers: int | None) -> int:
     return int(workers)
 
 
-def _validate(curves, period_range_s) -> tuple[float, float]:
+def _validate(curves, period_range_s) -> list[tuple[float, float]]:
     if isinstance(curves, InversionCurve):
         curves = [curves]
     if len(curves) == 0 or not all(isinstance(c, InversionCurve) for c in curves):
         raise ValueError(f"curves: {type(curves).__name__}: expected a non-empty sequence of InversionCurve")
     try:
-        lo, hi = (float(v) for v in period_range_s)
+        ranges = np.asarray(period_range_s, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"period_range_s: {period_range_s!r}: expected (min, max) sidereal periods in s") from None
-    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+        ranges = np.zeros(0)
+    if ranges.shape == (2,):
+        ranges = ranges[None, :]
+    if ranges.ndim != 2 or ranges.shape[1] != 2 or ranges.shape[0] == 0:
+        raise ValueError(f"period_range_s: {period_range_s!r}: expected (min, max) sidereal periods in s, or a sequence of them")
+    if not (np.isfinite(ranges).all() and (ranges[:, 0] > 0).all() and (ranges[:, 0] < ranges[:, 1]).all()):
         raise ValueError(f"period_range_s: {period_range_s!r}: expected 0 < min < max, in s")
-    return lo, hi
+    return [(float(lo), float(hi)) for lo, hi in ranges]
 
 
-def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float, float], *, rng: np.random.Generator | None = None,
+@dataclass
+class _RangeSearch:
+    """One period range's screen and its step-2 optima (:func:`invert`)."""
+
+    omegas: np.ndarray  #: the screen's sidereal rates, rad/s
+    poles: np.ndarray  #: (n, 3) the screened poles
+    chi2_grid: np.ndarray  #: (n, n_ω) their screening χ²
+    screen: PhaseScreen | None  #: a known shape's phases and body axes, None for a convex model
+    counts: tuple[int, int, int]  #: (candidates, periods per pole, aliases) of :func:`_candidate_fits`
+    kept: list  #: (χ², fit) of the distinct optima within reach on the refinement subsample, best first
+
+    def maps(self) -> tuple[np.ndarray, np.ndarray]:
+        """The pole map: the best screening χ² over rates at each pole, and the period there (s)."""
+        best_w = np.argmin(self.chi2_grid, axis=1)
+        return self.chi2_grid[np.arange(self.poles.shape[0]), best_w], 2 * np.pi / self.omegas[best_w]
+
+
+def invert(curves: Sequence[InversionCurve], model, period_range_s, *, rng: np.random.Generator | None = None,
            progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
            n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
            axes_T=None, n_phases: int = 48, n_refine_samples: int = 150, screen_known_facets: int | None = None, n_aliases: int = 40,
@@ -1109,7 +1130,13 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
     curves : the light curves (relative and calibrated may mix), each with its geometry.
     model : shape model with ``basis(sun_T, obs_T) -> (N, m)`` (W/sr): a :class:`ConvexModel` (unknown
         shape, body z the spin axis, phase absorbed) or a known shape (m = 1: phase and axis fitted).
-    period_range_s : (min, max) sidereal period searched, s.
+    period_range_s : (min, max) sidereal period searched, s; or a sequence of such ranges (one night's period P and 2P, when
+        one night cannot tell a single-peaked rotation from half a double-peaked one). Each range is screened and searched
+        through step 2 on its own; a known shape's misfit stages (the rescreen and the retry, :data:`RETRY_CHI2_DOF`) then run
+        only for the ranges whose best optimum ends within :data:`REFINE_REACH` of the best of all, and the optima of every
+        range within that reach are refined and weighed together. The SC3 seed-1 campaign of ``tests/studies/test_no_oracle.py``
+        (atlas-centaur, P and 2P): χ²/dof 133 at P and 8188 at 2P after step 2; each range's own retry cost 126 s of the
+        two searches' 198 s and changed neither range's best.
     rng : if given, turns the pole lattice by a random rotation (so repeated studies do not share grid points).
     progress : called as ``progress(n_done, n_total)`` during the grid and the refinements.
     pole_step_deg : pole lattice spacing, deg; period_oversampling : rate-grid density over the quarter-turn rule
@@ -1136,62 +1163,76 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s: tuple[float,
         nights × 150 samples, the same results and 0.8–1.16× the CPU of earlier single-thread runs): for many objects at
         once, one process per core, pass 1.
     """
-    lo, hi = _validate(curves, period_range_s)
+    ranges = _validate(curves, period_range_s)
     curves = [curves] if isinstance(curves, InversionCurve) else list(curves)
     workers = _check_options(pole_step_deg, screen_rel_error, workers)
     data = _stack(curves)
     m = np.asarray(model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))).shape[1]
     known = m == 1
     turn = Rotation.random(random_state=rng).as_matrix() if rng is not None else np.eye(3)
-    poles = lattice = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2))) @ turn.T
+    lattice = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2))) @ turn.T
     # a known shape's χ² is sharp in phase: the rate step then turns the phase at the span's ends by ≤ one phase step 2π/n_phases
-    omegas = period_grid((lo, hi), np.ptp(data.t_s), max(period_oversampling, n_phases / 8.0) if known else period_oversampling)
+    grids = [period_grid(r, np.ptp(data.t_s), max(period_oversampling, n_phases / 8.0) if known else period_oversampling) for r in ranges]
     axes = _PRINCIPAL_AXES if axes_T is None else np.asarray(axes_T, dtype=float)
-    n_total = omegas.size + n_candidates * n_periods_per_pole
+    n_total = [sum(o.size + n_candidates * n_periods_per_pole for o in grids)]
+    done = [0]
+
+    def advance(n: int) -> None:
+        done[0] += n
+        if progress is not None:
+            progress(done[0], max(n_total[0], done[0]))
+
+    def screen_progress(n_rates: int):  # progress(fraction of one screen over n_rates rates)
+        base = done[0]
+        return None if progress is None else (lambda f: progress(base + round(f * n_rates), n_total[0]))
+
     grid = plain = _subsample(data, n_grid_samples)
-    screen = None
-    if known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
+    sub = _subsample(data, n_refine_samples)
+    if known:
         grid = _tempered(grid, screen_rel_error)
         screen_model = screen_copy(model, screen_known_facets)
-        poles, screen = _known_screen(grid, screen_model, poles, turn, axes, omegas, n_phases, 2 * n_candidates,
-                                      None if progress is None else (lambda f: progress(round(f * omegas.size), n_total)))
-        chi2_grid = screen.chi2
     else:
         screen_model = model.with_facets(screen_facets) if isinstance(model, ConvexModel) else ConvexModel(screen_facets)
-        chi2_grid = _screen(grid, screen_model, poles, omegas, None if progress is None else (lambda j, n: progress(j, n_total)))
-    best_w = np.argmin(chi2_grid, axis=1)
-    chi2_map = chi2_grid[np.arange(poles.shape[0]), best_w]
-
-    sub = _subsample(data, n_refine_samples)
-    # distinct cycle-count aliases in the range: rates 2π/(spread of the curves' mid-times) apart
-    n_aliases = min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * np.ptp(_mid_times(data)) / (2 * np.pi))) + 1)
-    counts = (n_candidates, n_periods_per_pole, n_aliases)
-    done = [omegas.size]
-
-    def step() -> None:
-        done[0] += n_periods_per_pole
-        if progress is not None:
-            progress(done[0], max(n_total, done[0]))
-
-    coarse = _candidate_fits(grid, sub, model, screen_model, poles, chi2_grid, screen, omegas, axes, counts, workers, step)
     n_free = sub.y.size - m - int(data.relative.sum())
-    kept = _distinct_within_reach(coarse, n_free)
+    # distinct cycle-count aliases in a range: rates 2π/(spread of the curves' mid-times) apart
+    mid_spread = np.ptp(_mid_times(data))
+
+    def search(omegas: np.ndarray) -> _RangeSearch:
+        to_screen = screen_progress(omegas.size)
+        if known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
+            poles, screen = _known_screen(grid, screen_model, lattice, turn, axes, omegas, n_phases, 2 * n_candidates, to_screen)
+            chi2_grid = screen.chi2
+        else:
+            poles, screen = lattice, None
+            chi2_grid = _screen(grid, screen_model, poles, omegas, None if to_screen is None else (lambda j, n: to_screen(j / n)))
+        advance(omegas.size)
+        counts = (n_candidates, n_periods_per_pole, min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * mid_spread / (2 * np.pi))) + 1))
+        coarse = _candidate_fits(grid, sub, model, screen_model, poles, chi2_grid, screen, omegas, axes, counts, workers,
+                                 lambda: advance(n_periods_per_pole))
+        kept = _distinct_within_reach(coarse, n_free)
+        if known:
+            kept = _known_shape_optima(coarse, kept, plain, omegas, axes, n_phases, n_free, workers)
+        return _RangeSearch(omegas, poles, chi2_grid, screen, counts, kept)
+
+    searches = [search(omegas) for omegas in grids]
     if known:
-        kept = _known_shape_optima(coarse, kept, plain, omegas, axes, n_phases, n_free, workers)
-        if _misfit(kept, n_free) > RETRY_CHI2_DOF:
-            kept = _known_shape_optima(kept, kept, plain, omegas, axes, n_phases, n_free, workers, rescreen=True)
-        if screen_rel_error != RETRY_REL_ERROR and _misfit(kept, n_free) > RETRY_CHI2_DOF:
-            n_total += omegas.size + 2 * n_candidates * n_periods_per_pole
-            base = done[0]
-            done[0] += omegas.size
-            kept = _retried_optima(kept, plain, sub, model, screen_model, (lattice, turn, axes, omegas, n_phases), counts, n_free, workers,
-                                   None if progress is None else (lambda f: progress(base + round(f * omegas.size), n_total)), step,
-                                   (grid, poles, chi2_grid, screen))
-    kept = [fit for _, fit in kept]
+        lead = _within_reach([s.kept[0] for s in searches], n_free)
+        for s in sorted((s for s in searches if any(s.kept[0] is c for c in lead)), key=lambda s: s.kept[0][0]):
+            if _misfit(s.kept, n_free) > RETRY_CHI2_DOF:
+                s.kept = _known_shape_optima(s.kept, s.kept, plain, s.omegas, axes, n_phases, n_free, workers, rescreen=True)
+            if screen_rel_error != RETRY_REL_ERROR and _misfit(s.kept, n_free) > RETRY_CHI2_DOF:
+                n_total[0] += s.omegas.size + 2 * n_candidates * n_periods_per_pole
+                to_screen = screen_progress(s.omegas.size)  # the retry's screen, counted from here; its candidates after it
+                done[0] += s.omegas.size
+                s.kept = _retried_optima(s.kept, plain, sub, model, screen_model, (lattice, turn, axes, s.omegas, n_phases), s.counts, n_free,
+                                         workers, to_screen, lambda: advance(n_periods_per_pole), (grid, s.poles, s.chi2_grid, s.screen))
+    kept = [fit for _, fit in _distinct_within_reach([k for s in searches for k in s.kept], n_free)]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
-    if progress is not None and done[0] < n_total:  # fewer local minima than n_candidates: the bar still ends full
-        progress(n_total, n_total)
-    return _posterior(fits, data, model, poles, chi2_map, 2 * np.pi / omegas[best_w])
+    if progress is not None and done[0] < n_total[0]:  # fewer local minima than n_candidates: the bar still ends full
+        progress(n_total[0], n_total[0])
+    maps = [s.maps() for s in searches]
+    return _posterior(fits, data, model, np.vstack([s.poles for s in searches]), np.concatenate([c for c, _ in maps]),
+                      np.concatenate([p for _, p in maps]))
 
 
 def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> InversionResult:

@@ -69,7 +69,7 @@ class BuiltPrior:
     """
 
     rate_prior: object  #: :class:`lightcurves.prior.SpinPrior` of the longest night
-    period_range_s: tuple[float, float] | None
+    period_range_s: tuple[float, float] | None  #: the sidereal-period range (s) of the inversion's best mode
     inversion: object | None  #: :class:`lightcurves.inversion.posterior.InversionResult`
     inversion_prior: object | None  #: :class:`lightcurves.inversion.prior.InversionPrior`
     spin: BodyRatePrior | None
@@ -159,7 +159,8 @@ def _period_ranges(rate_prior, min_fraction: float = 0.01, n_sigma: float = 3.0)
 def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=None) -> BuiltPrior:
     """The filters' ``ω_T`` prior from ``lightcurves`` of ``target`` (its model known), and nothing else (module docstring).
 
-    Both period ranges of :func:`_period_ranges` are inverted; the better fit (lower χ²) is kept.
+    Both period ranges of :func:`_period_ranges` are searched by one inversion, which weighs their modes together
+    (:func:`lightcurves.inversion.search.invert`); ``period_range_s`` is the range of the best mode.
     """
     from lightcurves import extract_spin_prior
     from lightcurves.inversion.io import from_lightcurve
@@ -179,11 +180,9 @@ def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=
     if model.n_facets > SEARCH_FACETS:  # the search evaluates the model ~10⁵ times: a coarse model within ~1 % (bench_inversion_forward)
         model = model.coarse(SEARCH_FACETS)
     curves = [from_lightcurve(lc, calibrated=True, name=f"night {k}") for k, lc in enumerate(lightcurves)]
-    fits = []
-    for period_range in _period_ranges(rate_prior):
-        fits.append((invert(curves, model, period_range, rng=rng, progress=progress, axes_T=candidate_axes(tgt.J_diag),
-                            n_candidates=4, n_periods_per_pole=2), period_range))
-    result, period_range = min(fits, key=lambda f: f[0].best.chi2)
+    ranges = _period_ranges(rate_prior)
+    result = invert(curves, model, ranges, rng=rng, progress=progress, axes_T=candidate_axes(tgt.J_diag), n_candidates=4, n_periods_per_pole=2)
+    period_range = min(ranges, key=lambda r: abs(np.log(result.best.period_s / np.sqrt(r[0] * r[1]))))  # the range of the best mode
     ip = spin_prior_from_inversion(result, tgt.J_diag, source=f"inversion of {len(curves)} night(s) of {target}")
     tuning_spin = BodyRatePrior.from_rate(ip.rate_rad_s, ip.rate_sigma_rad_s, ip.axis_T, source="best inversion mode")
     return BuiltPrior(rate_prior, period_range, result, ip, ip.prior, tuning_spin, ip.description)

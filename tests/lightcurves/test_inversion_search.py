@@ -266,6 +266,10 @@ def test_bad_input_names_the_field():
     curves = _observe_curves(SpinState([0, 0, 1.0], 60.0, 0.0, EPOCH), ELLIPSOID, _passes(rng, n=10), rng)
     with pytest.raises(ValueError, match="period_range_s"):
         invert(curves, ELLIPSOID, (60.0, 50.0))
+    with pytest.raises(ValueError, match="period_range_s"):
+        invert(curves, ELLIPSOID, [(50.0, 60.0), (120.0, np.nan)])
+    with pytest.raises(ValueError, match="period_range_s"):
+        invert(curves, ELLIPSOID, "50,60")
     with pytest.raises(ValueError, match="curves"):
         invert([], ELLIPSOID, (50.0, 60.0))
     with pytest.raises(ValueError, match="pole_step_deg"):
@@ -372,3 +376,24 @@ def test_a_held_pole_fit_whose_rate_runs_through_zero_is_no_profile_point(monkey
     monkeypatch.setattr(P, "least_squares", lambda *a, **k: ran_off)
     chi2, state = P._held_fit(data, ELLIPSOID, False, start, 20)
     assert chi2 == np.inf and state.period_s == pytest.approx(60.0)
+
+
+def test_several_period_ranges_are_searched_as_one():
+    """P and 2P (one night cannot tell a single-peaked rotation from half a double-peaked one) in one search: its best is
+    the right range's own search's best (the wrong range first), no mode of the wrong range is listed (its best
+    fit is far beyond reach), the pole map holds both ranges' screens, and the progress bar counts both and ends full."""
+    rng = np.random.default_rng(11)
+    truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
+    curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
+    right, wrong = (59.7, 60.3), (119.4, 120.6)
+    one = invert(curves, ELLIPSOID, right, rng=np.random.default_rng(3), **FAST)
+    seen = []
+    both = invert(curves, ELLIPSOID, [wrong, right], rng=np.random.default_rng(3), progress=lambda i, n: seen.append((i, n)), **FAST)
+    assert both.best.chi2 == pytest.approx(one.best.chi2, rel=1e-6)
+    assert _angle_deg(both.best.pole_I, one.best.pole_I) < 0.01
+    assert all(right[0] < s.period_s < right[1] for s in both.solutions)
+    at_2p = both.period_map_s > 90.0
+    assert at_2p.any() and (~at_2p).any() and both.pole_grid_I.shape[0] > one.pole_grid_I.shape[0]
+    assert both.chi2_map[at_2p].min() > 2 * both.chi2_map[~at_2p].min()  # 124 against 30 on the tempered grid samples
+    done = [i for i, _ in seen]
+    assert done == sorted(done) and seen[-1][0] == seen[-1][1]
