@@ -1118,6 +1118,81 @@ class _RangeSearch:
         return self.chi2_grid[np.arange(self.poles.shape[0]), best_w], 2 * np.pi / self.omegas[best_w]
 
 
+class _Progress:
+    """:func:`invert`'s ``progress(n_done, n_total)``: rates screened and candidate poles fitted; a retry adds to the total."""
+
+    def __init__(self, callback: Callable[[int, int], None] | None, total: int):
+        self.callback, self.total, self.done = callback, total, 0
+
+    def advance(self, n: int) -> None:
+        self.done += n
+        if self.callback is not None:
+            self.callback(self.done, max(self.total, self.done))
+
+    def screen(self, n_rates: int) -> Callable[[float], None] | None:
+        """``f(fraction)`` over a screen of ``n_rates`` rates that starts now; ``done`` moves past it at once (the stages after
+        the screen count on from its end)."""
+        base, self.done = self.done, self.done + n_rates
+        return None if self.callback is None else (lambda f: self.callback(base + round(f * n_rates), self.total))
+
+    def finish(self) -> None:  # fewer local minima than candidates: the bar still ends full
+        if self.callback is not None and self.done < self.total:
+            self.callback(self.total, self.total)
+
+
+@dataclass(frozen=True)
+class _Search:
+    """What every period range of one :func:`invert` shares: samples, models, pole lattice, body axes and counts."""
+
+    grid: _Data  #: the screen's samples (a known shape's tempered, :func:`_tempered`)
+    plain: _Data  #: the same samples, untempered
+    sub: _Data  #: the refinement subsample
+    model: object
+    screen_model: object
+    lattice: np.ndarray  #: (n, 3) the pole lattice, turned by ``turn``
+    turn: np.ndarray
+    axes: np.ndarray  #: a known shape's candidate body axes
+    n_phases: int
+    n_candidates: int
+    n_periods: int
+    n_aliases: int
+    n_free: int  #: the refinement subsample's size less its linear parameters
+    mid_spread_s: float  #: the spread of the curves' mid-times (all samples)
+    workers: int
+    known: bool
+
+    def range_search(self, omegas: np.ndarray, bar: _Progress) -> _RangeSearch:
+        """One range's screen (step 1) and its optima through step 2 (module docstring)."""
+        to_screen = bar.screen(omegas.size)
+        if self.known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
+            poles, screen = _known_screen(self.grid, self.screen_model, self.lattice, self.turn, self.axes, omegas, self.n_phases,
+                                          2 * self.n_candidates, to_screen)
+            chi2_grid = screen.chi2
+        else:
+            poles, screen = self.lattice, None
+            chi2_grid = _screen(self.grid, self.screen_model, poles, omegas, None if to_screen is None else (lambda j, n: to_screen(j / n)))
+        # distinct cycle-count aliases in the range: rates 2π/(spread of the curves' mid-times) apart
+        n_aliases = int(np.ceil((omegas[-1] - omegas[0]) * self.mid_spread_s / (2 * np.pi))) + 1
+        counts = (self.n_candidates, self.n_periods, min(self.n_aliases, n_aliases))
+        coarse = _candidate_fits(self.grid, self.sub, self.model, self.screen_model, poles, chi2_grid, screen, omegas, self.axes, counts,
+                                 self.workers, lambda: bar.advance(self.n_periods))
+        kept = _distinct_within_reach(coarse, self.n_free)
+        if self.known:
+            kept = _known_shape_optima(coarse, kept, self.plain, omegas, self.axes, self.n_phases, self.n_free, self.workers)
+        return _RangeSearch(omegas, poles, chi2_grid, screen, counts, kept)
+
+    def misfit_stages(self, s: _RangeSearch, retry: bool, bar: _Progress) -> None:
+        """A known shape's range whose best is misfit (:data:`RETRY_CHI2_DOF`): the stages of step 2 again with the rescreen,
+        then, with ``retry``, the search from a screen at :data:`RETRY_REL_ERROR` (:func:`_retried_optima`)."""
+        if _misfit(s.kept, self.n_free) > RETRY_CHI2_DOF:
+            s.kept = _known_shape_optima(s.kept, s.kept, self.plain, s.omegas, self.axes, self.n_phases, self.n_free, self.workers, rescreen=True)
+        if retry and _misfit(s.kept, self.n_free) > RETRY_CHI2_DOF:
+            bar.total += s.omegas.size + 2 * self.n_candidates * self.n_periods
+            s.kept = _retried_optima(s.kept, self.plain, self.sub, self.model, self.screen_model,
+                                     (self.lattice, self.turn, self.axes, s.omegas, self.n_phases), s.counts, self.n_free, self.workers,
+                                     bar.screen(s.omegas.size), lambda: bar.advance(self.n_periods), (self.grid, s.poles, s.chi2_grid, s.screen))
+
+
 def invert(curves: Sequence[InversionCurve], model, period_range_s, *, rng: np.random.Generator | None = None,
            progress: Callable[[int, int], None] | None = None, pole_step_deg: float = 7.5, period_oversampling: float = 2.0,
            n_grid_samples: int = 60, screen_facets: int = 30, n_candidates: int = 6, n_periods_per_pole: int = 3,
@@ -1173,63 +1248,24 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s, *, rng: np.r
     lattice = fibonacci_sphere(int(np.ceil(4 * np.pi / np.radians(pole_step_deg) ** 2))) @ turn.T
     # a known shape's χ² is sharp in phase: the rate step then turns the phase at the span's ends by ≤ one phase step 2π/n_phases
     grids = [period_grid(r, np.ptp(data.t_s), max(period_oversampling, n_phases / 8.0) if known else period_oversampling) for r in ranges]
-    axes = _PRINCIPAL_AXES if axes_T is None else np.asarray(axes_T, dtype=float)
-    n_total = [sum(o.size + n_candidates * n_periods_per_pole for o in grids)]
-    done = [0]
-
-    def advance(n: int) -> None:
-        done[0] += n
-        if progress is not None:
-            progress(done[0], max(n_total[0], done[0]))
-
-    def screen_progress(n_rates: int):  # progress(fraction of one screen over n_rates rates)
-        base = done[0]
-        return None if progress is None else (lambda f: progress(base + round(f * n_rates), n_total[0]))
-
-    grid = plain = _subsample(data, n_grid_samples)
+    bar = _Progress(progress, sum(o.size + n_candidates * n_periods_per_pole for o in grids))
+    plain = _subsample(data, n_grid_samples)
     sub = _subsample(data, n_refine_samples)
     if known:
-        grid = _tempered(grid, screen_rel_error)
         screen_model = screen_copy(model, screen_known_facets)
     else:
         screen_model = model.with_facets(screen_facets) if isinstance(model, ConvexModel) else ConvexModel(screen_facets)
-    n_free = sub.y.size - m - int(data.relative.sum())
-    # distinct cycle-count aliases in a range: rates 2π/(spread of the curves' mid-times) apart
-    mid_spread = np.ptp(_mid_times(data))
-
-    def search(omegas: np.ndarray) -> _RangeSearch:
-        to_screen = screen_progress(omegas.size)
-        if known:  # the known shape itself, with phase and body axis (:mod:`.phase_screen`)
-            poles, screen = _known_screen(grid, screen_model, lattice, turn, axes, omegas, n_phases, 2 * n_candidates, to_screen)
-            chi2_grid = screen.chi2
-        else:
-            poles, screen = lattice, None
-            chi2_grid = _screen(grid, screen_model, poles, omegas, None if to_screen is None else (lambda j, n: to_screen(j / n)))
-        advance(omegas.size)
-        counts = (n_candidates, n_periods_per_pole, min(n_aliases, int(np.ceil((omegas[-1] - omegas[0]) * mid_spread / (2 * np.pi))) + 1))
-        coarse = _candidate_fits(grid, sub, model, screen_model, poles, chi2_grid, screen, omegas, axes, counts, workers,
-                                 lambda: advance(n_periods_per_pole))
-        kept = _distinct_within_reach(coarse, n_free)
-        if known:
-            kept = _known_shape_optima(coarse, kept, plain, omegas, axes, n_phases, n_free, workers)
-        return _RangeSearch(omegas, poles, chi2_grid, screen, counts, kept)
-
-    searches = [search(omegas) for omegas in grids]
-    if known:
-        lead = _within_reach([s.kept[0] for s in searches], n_free)
+    setup = _Search(_tempered(plain, screen_rel_error) if known else plain, plain, sub, model, screen_model, lattice, turn,
+                    _PRINCIPAL_AXES if axes_T is None else np.asarray(axes_T, dtype=float), n_phases, n_candidates, n_periods_per_pole, n_aliases,
+                    sub.y.size - m - int(data.relative.sum()), float(np.ptp(_mid_times(data))), workers, known)
+    searches = [setup.range_search(omegas, bar) for omegas in grids]
+    if known:  # the misfit stages, best range first, for the ranges within reach of the best of all
+        lead = _within_reach([s.kept[0] for s in searches], setup.n_free)
         for s in sorted((s for s in searches if any(s.kept[0] is c for c in lead)), key=lambda s: s.kept[0][0]):
-            if _misfit(s.kept, n_free) > RETRY_CHI2_DOF:
-                s.kept = _known_shape_optima(s.kept, s.kept, plain, s.omegas, axes, n_phases, n_free, workers, rescreen=True)
-            if screen_rel_error != RETRY_REL_ERROR and _misfit(s.kept, n_free) > RETRY_CHI2_DOF:
-                n_total[0] += s.omegas.size + 2 * n_candidates * n_periods_per_pole
-                to_screen = screen_progress(s.omegas.size)  # the retry's screen, counted from here; its candidates after it
-                done[0] += s.omegas.size
-                s.kept = _retried_optima(s.kept, plain, sub, model, screen_model, (lattice, turn, axes, s.omegas, n_phases), s.counts, n_free,
-                                         workers, to_screen, lambda: advance(n_periods_per_pole), (grid, s.poles, s.chi2_grid, s.screen))
-    kept = [fit for _, fit in _distinct_within_reach([k for s in searches for k in s.kept], n_free)]
+            setup.misfit_stages(s, screen_rel_error != RETRY_REL_ERROR, bar)
+    kept = [fit for _, fit in _distinct_within_reach([k for s in searches for k in s.kept], setup.n_free)]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
-    if progress is not None and done[0] < n_total[0]:  # fewer local minima than n_candidates: the bar still ends full
-        progress(n_total[0], n_total[0])
+    bar.finish()
     maps = [s.maps() for s in searches]
     return _posterior(fits, data, model, np.vstack([s.poles for s in searches]), np.concatenate([c for c, _ in maps]),
                       np.concatenate([p for _, p in maps]))
