@@ -9,9 +9,10 @@ Kaasalainen, Torppa & Muinonen, Icarus 153, 2001); this module chooses its input
   longest curve (:func:`lightcurves.extract_spin_prior`) ± max(3σ, 1 %), and the range at twice that
   period too when the curve's maxima per rotation are not established (a double-peaked curve of
   equal maxima looks single-peaked at half the rotation period);
-* :func:`run_inversion` — one search per period range; the modes of all searches merged;
+* :func:`run_inversion` — one search over every period range (:func:`~lightcurves.inversion.search.invert` weighs their modes
+  together);
 * :func:`fitted_brightness` — each curve's model brightness at a solution (for the fit figures and the recording);
-* :func:`profile_regions` — on request (``--pole-region``), the pole's profile-likelihood region of each search;
+* :func:`profile_regions` — on request (``--pole-region``), the pole's profile-likelihood region about every mode;
 * :func:`result_dict` / :func:`solutions_table` — the JSON of ``--json`` and the table of ``--out``.
 
 Every period here is sidereal; the single-night period is synodic, which the 1 % floor (and the
@@ -56,16 +57,24 @@ class PeriodRange:
 
 @dataclass(frozen=True)
 class InversionRun:
-    """What ``invert`` computed: the merged solutions (best first) and the searches they came from."""
+    """What ``invert`` computed: the search over every period range and its solutions (best first)."""
 
     curves: tuple  #: the InversionCurve inputs, in file order
     shape: str  #: the ``--shape`` value
     known_shape: bool  #: the model has one linear parameter (phase and body axis fitted)
     ranges: tuple[PeriodRange, ...]
-    results: tuple  #: one InversionResult per range
-    solutions: tuple  #: (SpinSolution, InversionResult it belongs to), by decreasing merged probability
-    probabilities: np.ndarray  #: merged probabilities of ``solutions`` (they sum to 1)
-    time_s: float  #: wall time of the searches
+    result: object  #: the :class:`~lightcurves.inversion.posterior.InversionResult` of the search
+    time_s: float  #: wall time of the search
+
+    @property
+    def solutions(self) -> tuple:
+        """The :class:`~lightcurves.inversion.posterior.SpinSolution` modes, by decreasing probability."""
+        return self.result.solutions
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        """The modes' probabilities (they sum to 1), in the order of :attr:`solutions`."""
+        return np.array([s.probability for s in self.result.solutions])
 
 
 def shape_model(shape: str):
@@ -127,34 +136,19 @@ def period_trials(ranges: Sequence[PeriodRange], curves: Sequence, oversampling:
 
 def run_inversion(curves: Sequence, shape: str, ranges: Sequence[PeriodRange], *, rng: np.random.Generator,
                   progress: Callable[[int, int], None] | None = None, search_options: dict | None = None) -> InversionRun:
-    """One :func:`~lightcurves.inversion.search.invert` per period range, the modes merged (best first).
-
-    Merged probabilities: within a search, the modes' Laplace probabilities p_i; across searches each
-    search is weighted by exp(−(χ²_min,r − χ²_min)/(2 s)) with s the largest χ² scale — the searches share
-    the data and the model, so their best χ² compare directly (their Occam factors are taken as equal).
-    """
+    """One :func:`~lightcurves.inversion.search.invert` over every period range of ``ranges``: each range is screened and
+    searched on its own, and the modes of all of them are weighed together by their Laplace probabilities (the ranges share the
+    data and the model, so their χ² compare directly)."""
     import time
 
     from lightcurves.inversion.search import invert
 
     model = shape_model(shape)
     start = time.perf_counter()
-    results = []
-    for r in ranges:
-        results.append(invert(list(curves), model, (r.lo_s, r.hi_s), rng=rng, progress=progress, **(search_options or {})))
+    result = invert(list(curves), model, [(r.lo_s, r.hi_s) for r in ranges], rng=rng, progress=progress, **(search_options or {}))
     elapsed = time.perf_counter() - start
-    scale = max(res.chi2_scale for res in results)
-    chi2_min = min(res.best.chi2 for res in results)
-    pairs, weights = [], []
-    for res in results:
-        w = np.exp(-(res.best.chi2 - chi2_min) / (2.0 * scale))
-        for sol in res.solutions:
-            pairs.append((sol, res))
-            weights.append(w * sol.probability)
-    weights = np.asarray(weights) / np.sum(weights)
-    order = np.argsort(-weights, kind="stable")
     known = np.asarray(model.basis(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]))).shape[1] == 1
-    return InversionRun(tuple(curves), shape, known, tuple(ranges), tuple(results), tuple(pairs[i] for i in order), weights[order], elapsed)
+    return InversionRun(tuple(curves), shape, known, tuple(ranges), result, elapsed)
 
 
 def fitted_brightness(solution, result, curves: Sequence) -> list[np.ndarray]:
@@ -206,20 +200,14 @@ def solution_dict(solution, probability: float, known_shape: bool) -> dict:
 
 
 def profile_regions(run: InversionRun, progress: Callable[[int, int], None] | None = None) -> tuple:
-    """The pole's profile-likelihood region of each search of ``run`` (:func:`lightcurves.inversion.profile.pole_profile_region`,
-    its defaults: mapped to the 99 % level), in the order of ``run.results``; ``progress(n_done, n_total)`` over all of them."""
-    from lightcurves.inversion.profile import MAX_REGION_POLES, pole_profile_region
+    """The pole's profile-likelihood region about every mode of ``run`` (:func:`lightcurves.inversion.profile.pole_profile_region`,
+    its defaults: mapped to the 99 % level), as a tuple of one region; ``progress(n_done, n_total)`` over the map."""
+    from lightcurves.inversion.profile import pole_profile_region
 
-    out = []
-    for k, res in enumerate(run.results):
-        step = None if progress is None else (lambda n, m, k=k: progress(k * MAX_REGION_POLES + n, len(run.results) * MAX_REGION_POLES))
-        out.append(pole_profile_region(run.curves, res.model, res, progress=step))
-    if progress is not None:
-        progress(len(run.results) * MAX_REGION_POLES, len(run.results) * MAX_REGION_POLES)
-    return tuple(out)
+    return (pole_profile_region(run.curves, run.result.model, run.result, progress=progress),)
 
 
-def region_dict(region, period_range: PeriodRange) -> dict:
+def region_dict(region, ranges: Sequence[PeriodRange]) -> dict:
     """One profile-likelihood region in the JSON form of ``--json``: its areas, and every mapped pole within the mapped
     level (ecliptic and equatorial J2000, deg; the level F_χ²₂(Λ) at which it enters the region; the sidereal period and
     body spin axis there: a known shape's pole can be listed once per body axis it was mapped about)."""
@@ -233,18 +221,18 @@ def region_dict(region, period_range: PeriodRange) -> dict:
         poles.append({"pole_ecliptic_lon_deg": float(lon), "pole_ecliptic_lat_deg": float(lat), "pole_ra_deg": float(ra),
                       "pole_dec_deg": float(dec), "level": float(level), "sidereal_period_h": state.period_s / SECONDS_PER_HOUR,
                       "body_spin_axis_T": [float(x) for x in state.axis_T]})
-    return {"period_range": period_range.to_dict(), "mapped_to_level": region.max_level, "complete": bool(region.complete),
+    return {"period_ranges": [r.to_dict() for r in ranges], "mapped_to_level": region.max_level, "complete": bool(region.complete),
             "n_poles_mapped": int(region.chi2.size), "solid_angle_68_deg2": region.solid_angle_deg2(0.68),
             "solid_angle_95_deg2": region.solid_angle_deg2(0.95), "chi2_min_mapped": region.min_chi2, "poles": poles}
 
 
 def result_dict(run: InversionRun, files: Sequence[str], seed: int, regions: Sequence = ()) -> dict:
     """The whole ``--json`` document: solutions best first, fit quality, inputs and the period ranges searched; with
-    ``regions`` (:func:`profile_regions`) also ``pole_profile_regions``, one per range (:func:`region_dict`)."""
-    best, res = run.solutions[0]
+    ``regions`` (:func:`profile_regions`) also ``pole_profile_regions`` (:func:`region_dict`)."""
+    best, res = run.result.best, run.result
     n = int(sum(len(c) for c in run.curves))
     doc = {
-        "solutions": [solution_dict(s, p, run.known_shape) for (s, _), p in zip(run.solutions, run.probabilities)],
+        "solutions": [solution_dict(s, s.probability, run.known_shape) for s in run.solutions],
         "fit": {"chi2": float(best.chi2), "dof": int(res.dof), "chi2_per_dof": float(best.chi2 / max(res.dof, 1)),
                 "chi2_scale": float(res.chi2_scale), "n_points": n, "n_curves": len(run.curves),
                 "n_relative": int(sum(not c.calibrated for c in run.curves)), "n_calibrated": int(sum(c.calibrated for c in run.curves))},
@@ -257,7 +245,7 @@ def result_dict(run: InversionRun, files: Sequence[str], seed: int, regions: Seq
         "time_s": float(run.time_s),
     }
     if regions:
-        doc["pole_profile_regions"] = [region_dict(r, pr) for r, pr in zip(regions, run.ranges)]
+        doc["pole_profile_regions"] = [region_dict(r, run.ranges) for r in regions]
     return doc
 
 

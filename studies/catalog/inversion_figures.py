@@ -72,10 +72,8 @@ def plot_pole_posterior(run, path: Path, regions: tuple = ()) -> None:
     """Pole posterior on the ecliptic sky (module docstring), written to ``path`` (PNG); ``regions``: the pole's
     profile-likelihood regions (:func:`studies.catalog.inversion.profile_regions`), drawn when given."""
     plt = pyplot()
-    scale = max(r.chi2_scale for r in run.results)
-    poles = np.concatenate([r.pole_grid_I for r in run.results])
-    chi2 = np.concatenate([r.chi2_map for r in run.results])
-    # the poles of every search (one per period range) pooled: each pixel takes its nearest searched pole
+    scale, poles, chi2 = run.result.chi2_scale, run.result.pole_grid_I, run.result.chi2_map
+    # the screened poles of every period range: each pixel takes its nearest searched pole
     post = np.exp(-(chi2 - chi2.min()) / (2.0 * scale))
     lon_g, lat_g = np.meshgrid(np.linspace(-180, 180, 361), np.linspace(-90, 90, 181))
     lam, bet = np.radians(lon_g), np.radians(lat_g)
@@ -91,7 +89,7 @@ def plot_pole_posterior(run, path: Path, regions: tuple = ()) -> None:
     colors = ["#2ec4ff", "#7CFC00", "#ffd166", "#ff6b6b", "#c77dff", "#f4f1de"]
     shown = [k for k, p in enumerate(run.probabilities) if k == 0 or p >= MIN_LABELLED_PROBABILITY]
     for k in shown:
-        sol, p = run.solutions[k][0], run.probabilities[k]
+        sol, p = run.solutions[k], run.probabilities[k]
         col = colors[k % len(colors)]
         for level, style in zip(LEVELS, ("-", "--")):
             lo, la = _broken(*_lonlat_deg(ellipse_I(sol, level)))
@@ -104,7 +102,7 @@ def plot_pole_posterior(run, path: Path, regions: tuple = ()) -> None:
     _plot_regions(ax, regions)
     rest = [k for k in range(len(run.solutions)) if k not in shown]
     if rest:
-        lo, la = _lonlat_deg(np.array([run.solutions[k][0].pole_I for k in rest]))
+        lo, la = _lonlat_deg(np.array([run.solutions[k].pole_I for k in rest]))
         ax.plot(np.radians(lo), np.radians(la), "x", color="0.6", ms=5, ls="none",
                 label=f"{len(rest)} more with p < {MIN_LABELLED_PROBABILITY:g} (inversion.json)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, title="solutions (best first)", title_fontsize=9, frameon=False)

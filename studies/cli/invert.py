@@ -115,7 +115,7 @@ def _text_line(rank: int, s: dict) -> str:
 
 def _region_line(r: dict) -> str:
     inside = {lv: len({(round(p["pole_ra_deg"], 9), round(p["pole_dec_deg"], 9)) for p in r["poles"] if p["level"] <= lv}) for lv in (0.68, 0.95)}
-    return (f"pole profile-likelihood region ({r['period_range']['min_h']:.6g} to {r['period_range']['max_h']:.6g} h): "
+    return ("pole profile-likelihood region: "
             f"95 % {r['solid_angle_95_deg2']:.3g} deg² ({inside[0.95]} poles), 68 % {r['solid_angle_68_deg2']:.3g} deg² ({inside[0.68]} poles); "
             f"{r['n_poles_mapped']} poles mapped to {100 * r['mapped_to_level']:g} %" + ("" if r["complete"] else " (stopped at the pole limit: incomplete)"))
 
@@ -176,8 +176,7 @@ def invert_command(
         finally:
             close()
     doc = result_dict(run, [str(f) for f in files], seed, regions)
-    best, res = run.solutions[0]
-    fitted = fitted_brightness(best, res, run.curves) if (out is not None or record is not None) else None
+    fitted = fitted_brightness(run.result.best, run.result, run.curves) if (out is not None or record is not None) else None
     if out is not None:
         _write_out(out, run, doc, fitted, regions)
     if record is not None:

@@ -77,12 +77,10 @@ def write_inversion_recording(path: Path, run, fitted: list, doc: dict, regions:
             style_series(rec, f"{base}/observed", "observed", (90, 90, 90), width=1.0)
             style_series(rec, f"{base}/fitted", "fitted", (215, 50, 45), width=2.0)
             style_series(rec, f"{base}/residual", "residual", (40, 90, 215), width=1.0)
-        scale = max(r.chi2_scale for r in run.results)
-        poles = np.concatenate([r.pole_grid_I for r in run.results])
-        chi2 = np.concatenate([r.chi2_map for r in run.results])
+        scale, poles, chi2 = run.result.chi2_scale, run.result.pole_grid_I, run.result.chi2_map
         post = np.exp(-(chi2 - chi2.min()) / (2.0 * scale))
         rec.log("/inversion/pole_map", rr.Points3D(poles, colors=_magma(post), radii=0.02), static=True)
-        for k, ((sol, _), p) in enumerate(zip(run.solutions, run.probabilities)):
+        for k, (sol, p) in enumerate(zip(run.solutions, run.probabilities)):
             label = f"#{k + 1} p={p:.2f} P={sol.period_s / 3600:.6g} h"
             rec.log(f"/inversion/solutions/{k + 1}", rr.Arrows3D(vectors=[1.25 * sol.pole_I], labels=[label], colors=[(46, 196, 255)]), static=True)
             rec.log(f"/inversion/solutions/{k + 1}/regions", rr.LineStrips3D([1.01 * ellipse_I(sol, lv) for lv in LEVELS],

@@ -144,8 +144,8 @@ def test_fitted_curves_reproduce_the_solution_chi2():
     # any solution will do (the identity holds at every one): the smallest search
     run = run_inversion(curves, "convex", [PeriodRange(0.999 * PERIOD_S, 1.001 * PERIOD_S, "test")], rng=rng,
                         search_options={"pole_step_deg": 30.0, "n_grid_samples": 30, "n_candidates": 1, "n_periods_per_pole": 1})
-    sol, res = run.solutions[0]
-    fitted = fitted_brightness(sol, res, curves)
+    sol = run.solutions[0]
+    fitted = fitted_brightness(sol, run.result, curves)
     chi2 = sum(float(np.sum(((c.brightness - f) / c.sigma) ** 2)) for c, f in zip(curves, fitted))
     assert chi2 == pytest.approx(sol.chi2, rel=1e-4)  # measured 2.6e-6: the epoch as astropy Time, the phase to ~1e-8 rad
 
