@@ -173,13 +173,13 @@ def _finite(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def solution_dict(solution, probability: float, known_shape: bool) -> dict:
+def solution_dict(solution, known_shape: bool) -> dict:
     """One solution in the JSON form of ``--json`` (angles in degrees, periods in hours, epoch as a UTC Julian date)."""
     lon, lat = np.degrees(solution.ecliptic_rad)
     ra, dec = np.degrees(solution.radec_rad)
     st = solution.state
     d = {
-        "probability": float(probability),
+        "probability": float(solution.probability),
         "pole_ecliptic_lon_deg": float(lon),
         "pole_ecliptic_lat_deg": float(lat),
         "pole_ra_deg": float(ra),
@@ -232,7 +232,7 @@ def result_dict(run: InversionRun, files: Sequence[str], seed: int, regions: Seq
     best, res = run.result.best, run.result
     n = int(sum(len(c) for c in run.curves))
     doc = {
-        "solutions": [solution_dict(s, s.probability, run.known_shape) for s in run.solutions],
+        "solutions": [solution_dict(s, run.known_shape) for s in run.solutions],
         "fit": {"chi2": float(best.chi2), "dof": int(res.dof), "chi2_per_dof": float(best.chi2 / max(res.dof, 1)),
                 "chi2_scale": float(res.chi2_scale), "n_points": n, "n_curves": len(run.curves),
                 "n_relative": int(sum(not c.calibrated for c in run.curves)), "n_calibrated": int(sum(c.calibrated for c in run.curves))},
