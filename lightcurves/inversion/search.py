@@ -1266,9 +1266,20 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s, *, rng: np.r
     kept = [fit for _, fit in _distinct_within_reach([k for s in searches for k in s.kept], setup.n_free)]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
     bar.finish()
+    return _posterior(fits, data, model, *_pooled_maps(searches))
+
+
+def _pooled_maps(searches: list[_RangeSearch]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pole map of every range as one: (poles (n, 3), screening χ² (n,), period (n,) s), a pole screened in several ranges
+    (the coarse lattice of a known shape's screen, every pole of a convex one) once, at the range where its χ² is lowest."""
     maps = [s.maps() for s in searches]
-    return _posterior(fits, data, model, np.vstack([s.poles for s in searches]), np.concatenate([c for c, _ in maps]),
-                      np.concatenate([p for _, p in maps]))
+    poles = np.vstack([s.poles for s in searches])
+    chi2 = np.concatenate([c for c, _ in maps])
+    period = np.concatenate([p for _, p in maps])
+    by_chi2 = np.argsort(chi2, kind="stable")
+    _, first = np.unique(poles[by_chi2], axis=0, return_index=True)
+    keep = np.sort(by_chi2[first])
+    return poles[keep], chi2[keep], period[keep]
 
 
 def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> InversionResult:

@@ -381,7 +381,7 @@ def test_a_held_pole_fit_whose_rate_runs_through_zero_is_no_profile_point(monkey
 def test_several_period_ranges_are_searched_as_one():
     """P and 2P (one night cannot tell a single-peaked rotation from half a double-peaked one) in one search: its best is
     the right range's own search's best (the wrong range first), no mode of the wrong range is listed (its best
-    fit is far beyond reach), the pole map holds both ranges' screens, and the progress bar counts both and ends full."""
+    fit is far beyond reach), the pole map holds both ranges' screens (each pole once), and the progress bar counts both and ends full."""
     rng = np.random.default_rng(11)
     truth = SpinState(pole_from_radec(1.0, 0.6), 60.0, 0.3, EPOCH)
     curves = _observe_curves(truth, ELLIPSOID, _passes(rng), rng)
@@ -394,6 +394,7 @@ def test_several_period_ranges_are_searched_as_one():
     assert all(right[0] < s.period_s < right[1] for s in both.solutions)
     at_2p = both.period_map_s > 90.0
     assert at_2p.any() and (~at_2p).any() and both.pole_grid_I.shape[0] > one.pole_grid_I.shape[0]
+    assert np.unique(both.pole_grid_I, axis=0).shape[0] == both.pole_grid_I.shape[0]  # a pole screened in both ranges once
     assert both.chi2_map[at_2p].min() > 2 * both.chi2_map[~at_2p].min()  # 124 against 30 on the tempered grid samples
     done = [i for i, _ in seen]
     assert done == sorted(done) and seen[-1][0] == seen[-1][1]
