@@ -67,7 +67,7 @@ class DemoConfig:
 
 
 #: ``--quick``: a smaller run for the tests.
-QUICK = DemoConfig(duration_s=120.0, lightcurve_duration_s=300.0, lightcurve_cadence_s=2.0, render_resolution_px=16)
+QUICK = DemoConfig(duration_s=120.0, lightcurve_duration_s=300.0, lightcurve_cadence_s=2.0)
 #: The two arms of the demo: without the prior, and with it (tuning + initial condition).
 DEMO_ARMS = {"": "none", "_prior": "init"}
 

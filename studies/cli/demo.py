@@ -12,7 +12,7 @@ from studies.engine.validate import out_dir
 
 def demo(
     out: Path = typer.Option(DEMO_OUT, "--out", help="Output folder (tables, figures, recordings).", callback=out_dir()),
-    quick: bool = typer.Option(False, "--quick", help="Smaller run (shorter light curve and filter runs, 16 px renders) for tests."),
+    quick: bool = typer.Option(False, "--quick", help="Smaller run (shorter light curve and filter runs, fewer renders) for tests."),
 ) -> None:
     """The main job: light curve -> spin prior -> EKF/UKF on SC3 with and without it; tables, figures, recordings."""
     from studies.catalog.demo import QUICK, DemoConfig, run_demo

@@ -59,7 +59,7 @@ class RenderedPrior:
 
     @property
     def extracted(self):
-        """The single-night rate prior (:class:`lightcurves.prior.SpinPrior`) that bounded the inversion's period search."""
+        """The longest night's rate prior (:class:`lightcurves.prior.SpinPrior`), one of those that bounded the inversion's period search."""
         return self.built.rate_prior
 
     @property
