@@ -9,6 +9,7 @@ is a pure library (arrays in, result objects out; no files, no progress bars):
 * :mod:`~lightcurves.inversion.spin` — :class:`SpinState`, the attitude of a principal-axis rotation.
 * :mod:`~lightcurves.inversion.convex` — :class:`ConvexModel` (free facet areas), :class:`EllipsoidModel`.
 * :mod:`~lightcurves.inversion.search` — :func:`invert`: pole/period grid, refinement.
+* :mod:`~lightcurves.inversion.periods` — :func:`~lightcurves.inversion.periods.period_ranges`: the period ranges to search, from each curve's own period.
 * :mod:`~lightcurves.inversion.profile` — the pole's profile likelihood: :func:`pole_profile_chi2` at one pole,
   :func:`pole_profile_region` over the region it defines.
 * :mod:`~lightcurves.inversion.phase_screen` — the known-shape screen over pole × body axis × rate × phase.

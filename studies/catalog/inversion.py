@@ -5,10 +5,8 @@ Kaasalainen, Torppa & Muinonen, Icarus 153, 2001); this module chooses its input
 
 * :func:`shape_model` — ``convex`` (unknown shape: a Gaussian image of facet areas), ``ellipsoid:A,B,C``
   (a triaxial ellipsoid of known semi-axes, m) or one of lcnav's targets (the known-shape facet model);
-* :func:`derived_period_ranges` — without a period range from the user: the single-night period of the
-  longest curve (:func:`lightcurves.extract_spin_prior`) ± max(3σ, 1 %), and the range at twice that
-  period too when the curve's maxima per rotation are not established (a double-peaked curve of
-  equal maxima looks single-peaked at half the rotation period);
+* without a period range from the user, every curve's own period ± max(3σ, 1 %) and, when its maxima per rotation are not
+  established, twice it (:func:`lightcurves.inversion.periods.period_ranges`);
 * :func:`run_inversion` — one search over every period range (:func:`~lightcurves.inversion.search.invert` weighs their modes
   together);
 * :func:`fitted_brightness` — each curve's model brightness at a solution (for the fit figures and the recording);
@@ -27,32 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-#: Fractional half-width floor of a derived period range (a user knows the synodic period to ~1 % from one night).
-MIN_RANGE_FRACTION = 0.01
-#: Half-width of a derived period range in units of the single-night period's 1-σ.
-RANGE_SIGMAS = 3.0
-#: 1-σ of a magnitude from the relative 1-σ of a flux: σ_m = (2.5 / ln 10) σ_F / F.
-_FLUX_TO_MAG_SIGMA = 2.5 / np.log(10.0)
-SECONDS_PER_HOUR = 3600.0
+from lightcurves.inversion.periods import SECONDS_PER_HOUR, PeriodRange
+
 #: Facets of an ``ellipsoid:A,B,C`` model: measured against 8000 facets for a 3:1.5:1 ellipsoid at phase angles
 #: below 110°, 0.12 % rms and 0.74 % max brightness error (2000 facets: 0.05 % / 0.34 %, at twice the cost).
 ELLIPSOID_FACETS = 1000
-
-
-class PeriodRangeError(ValueError):
-    """No period range can be derived from the light curves (no significant single-night period)."""
-
-
-@dataclass(frozen=True)
-class PeriodRange:
-    """One sidereal-period interval searched, s, and why (``given`` or the single-night period it came from)."""
-
-    lo_s: float
-    hi_s: float
-    source: str
-
-    def to_dict(self) -> dict:
-        return {"min_h": self.lo_s / SECONDS_PER_HOUR, "max_h": self.hi_s / SECONDS_PER_HOUR, "source": self.source}
 
 
 @dataclass(frozen=True)
@@ -90,37 +67,6 @@ def shape_model(shape: str):
     from lightcurves.targets import get_target
 
     return KnownShapeModel.from_target(get_target(shape))
-
-
-def derived_period_ranges(curves: Sequence) -> tuple[list[PeriodRange], object]:
-    """Period ranges from the single-night period of the longest curve (module docstring) and the prior they came from.
-
-    The longest curve is the one with the longest time span. Its magnitudes ``−2.5 log₁₀ F`` (any zero
-    point) and σ_m = 1.0857 σ_F/F go to :func:`lightcurves.extract_spin_prior` with the curve's Sun and
-    observer directions (so the 1-σ holds the synodic–sidereal difference). The rotation period P =
-    2π/rate is searched over [P/(1 + h), P/(1 − h)], h = max(3σ_rate/rate, 1 %) (a symmetric interval
-    in rate); with ``maxima_per_rotation == 1`` the same interval at 2P is searched as well.
-    Raises :class:`PeriodRangeError` when the curve gives no significant period.
-    """
-    from lightcurves import extract_spin_prior
-
-    k = int(np.argmax([np.ptp(c.t_s) for c in curves]))
-    c = curves[k]
-    mag = -2.5 * np.log10(c.brightness)
-    prior = extract_spin_prior(c.t_s, mag, _FLUX_TO_MAG_SIGMA * c.sigma / c.brightness, sun_dir=c.sun_dir_I, observer_dir=c.observer_dir_I)
-    name = c.name or f"curve {k + 1}"
-    if not prior.significant:
-        raise PeriodRangeError(f"{name}: no significant single-night period ({prior.decision}): expected --period-range-h MIN,MAX")
-    h = max(RANGE_SIGMAS * prior.rate_sigma_rad_s / prior.rate_rad_s, MIN_RANGE_FRACTION)
-    if h >= 0.5:
-        raise PeriodRangeError(f"{name}: single-night period {prior.period_s / SECONDS_PER_HOUR:.6g} h with a 3-sigma of "
-                               f"{100 * h:.0f} %: expected --period-range-h MIN,MAX")  # fmt: skip
-    p = prior.period_s
-    what = f"{name}: single-night period {p / SECONDS_PER_HOUR:.6g} h ± {100 * h:.2g} % ({prior.maxima_per_rotation} maxima per cycle)"
-    ranges = [PeriodRange(p / (1 + h), p / (1 - h), what)]
-    if prior.maxima_per_rotation == 1:
-        ranges.append(PeriodRange(2 * p / (1 + h), 2 * p / (1 - h), what + ", doubled: one maximum per cycle may be half a double-peaked rotation"))
-    return ranges, prior
 
 
 def period_trials(ranges: Sequence[PeriodRange], curves: Sequence, oversampling: float = 1.0) -> int:

@@ -138,7 +138,7 @@ def invert_command(
                                        callback=v.in_file()),
     shape: str = typer.Option("convex", help="TARGET (a known lcnav target), convex (unknown shape) or ellipsoid:A,B,C (semi-axes, m)",
                               callback=v.text()),
-    period_range_h: str | None = typer.Option(None, help="sidereal period range 'MIN,MAX' in hours (default: from the longest curve's period)",
+    period_range_h: str | None = typer.Option(None, help="sidereal period range 'MIN,MAX' in hours (default: from every curve's own period)",
                                               callback=v.text()),
     as_json: bool = typer.Option(False, "--json", help="print the solutions as JSON"),
     out: Path | None = typer.Option(None, help="write inversion.json, solutions.csv/.parquet and figures into this folder", callback=v.out_dir()),
@@ -149,7 +149,8 @@ def invert_command(
                                                  "mode: seconds for a well-determined pole, minutes for a ridge of a heavy model)"),
 ) -> None:
     """Invert light curves of one object to its spin state: pole, sidereal period, phase and (known shape) body axis."""
-    from studies.catalog.inversion import PeriodRange, derived_period_ranges, fitted_brightness, profile_regions, result_dict, run_inversion
+    from lightcurves.inversion.periods import PeriodRange, PeriodRangeError, period_ranges
+    from studies.catalog.inversion import fitted_brightness, profile_regions, result_dict, run_inversion
 
     shape = _shape(shape)
     given = None if period_range_h is None else _period_range_s(period_range_h)
@@ -159,7 +160,10 @@ def invert_command(
     if given is not None:
         ranges = [PeriodRange(given[0], given[1], "given (--period-range-h)")]
     else:
-        ranges, _ = derived_period_ranges(curves)
+        try:
+            ranges = period_ranges(curves)
+        except PeriodRangeError as e:
+            raise PeriodRangeError(f"{e}: expected --period-range-h MIN,MAX") from None
         for r in ranges:
             typer.echo(f"lcnav: period range {r.lo_s / 3600:.6g} to {r.hi_s / 3600:.6g} h derived from {r.source}", err=True)
     _check_trials(ranges, curves, SEARCH_OPTIONS[quick].get("period_oversampling", 1.0))

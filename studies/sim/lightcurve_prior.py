@@ -9,7 +9,7 @@ Three steps, kept apart so that the truth cannot reach the prior:
    observer's files hold: :class:`~lightcurves.io.LightCurve` records with the per-sample geometry, their
    metadata stripped of every ``truth_*`` key. The truth it used is returned beside them, for scoring only.
 2. :func:`build_prior` — the *user* side. From those light curves and the target's model (its name) only:
-   each night's period (:func:`lightcurves.extract_spin_prior`) bounds the period search; the
+   each night's period (:func:`lightcurves.inversion.periods.period_ranges`) bounds the period search; the
    known-shape inversion (:func:`lightcurves.inversion.search.invert`) gives the spin state's modes; and
    :func:`lightcurves.inversion.prior.spin_prior_from_inversion` turns them into the filters' ``ω_T`` prior
    (mean and full covariance; symmetric targets and ambiguous modes handled there).
@@ -143,40 +143,16 @@ def candidate_axes(J_T_diag) -> np.ndarray:
     return np.vstack([s, -s, np.roll(s, 1)])
 
 
-def _period_ranges(rate_priors, min_fraction: float = 0.01, n_sigma: float = 3.0) -> list[tuple[float, float]]:
-    """Sidereal-period search ranges: ±max(n σ, 1 %) around each night's period P, and around 2P; overlapping ranges
-    merged, in increasing order.
-
-    One night tells the light curve's period, not always the rotation's: a body whose two ends look alike
-    gives two equal maxima per turn, and the rate prior then reports twice the rate (README, "Known
-    limitations"). A known shape tells P from 2P by the fit, so both are searched. A short arc can name a higher
-    harmonic still: on the chain study's quick campaign (seed ``init-s001``, 300 s arcs of 2.35 turns at 64 px) the
-    nights gave P/6, P/2 and P/2 (the glints' residuals are red, and the fundamental's odd harmonics do not pass the
-    period finder's Wald test against that noise); every night's P and 2P are searched, and the fit picks among them.
-    """
-    ranges = []
-    for p in rate_priors:
-        half = max(n_sigma * p.rate_sigma_rad_s / p.rate_rad_s, min_fraction)
-        P = 2.0 * np.pi / p.rate_rad_s
-        ranges += [(m * P * (1.0 - half), m * P * (1.0 + half)) for m in (1, 2)]
-    merged: list[tuple[float, float]] = []
-    for lo, hi in sorted(ranges):
-        if merged and lo <= merged[-1][1]:
-            merged[-1] = (merged[-1][0], max(hi, merged[-1][1]))
-        else:
-            merged.append((lo, hi))
-    return merged
-
-
 def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=None) -> BuiltPrior:
     """The filters' ``ω_T`` prior from ``lightcurves`` of ``target`` (its model known), and nothing else (module docstring).
 
-    Every night's period is found on its own (:func:`lightcurves.extract_spin_prior`); the period ranges of
-    :func:`_period_ranges` about those that are significant are searched by one inversion, which weighs their modes
-    together (:func:`lightcurves.inversion.search.invert`); ``period_range_s`` is the range of the best mode.
+    Every night's period is found on its own, and the period ranges about them
+    (:func:`lightcurves.inversion.periods.period_ranges`: P, and 2P where one maximum per cycle) are searched by one
+    inversion, which weighs their modes together (:func:`lightcurves.inversion.search.invert`); ``period_range_s`` is
+    the range of the best mode.
     """
-    from lightcurves import extract_spin_prior
     from lightcurves.inversion.io import from_lightcurve
+    from lightcurves.inversion.periods import PeriodRangeError, curve_periods, period_ranges
     from lightcurves.inversion.known_shape import KnownShapeModel
     from lightcurves.inversion.prior import spin_prior_from_inversion
     from lightcurves.inversion.search import invert
@@ -184,22 +160,22 @@ def build_prior(lightcurves, target: str, *, rng: np.random.Generator, progress=
 
     if not lightcurves:
         raise ValueError("lightcurves: none given: expected at least one night")
-    by_length = sorted(lightcurves, key=len, reverse=True)
-    rate_priors = [extract_spin_prior(lc.t_s, lc.mag, lc.mag_err, sun_dir=lc.sun_dir_I, observer_dir=lc.observer_dir_I) for lc in by_length]
-    significant = [p for p in rate_priors if p.significant]
-    if not significant:
-        return BuiltPrior(rate_priors[0], None, None, None, None, None, "no significant period in any night: no prior")
+    curves = [from_lightcurve(lc, calibrated=True, name=f"night {k}") for k, lc in enumerate(lightcurves)]
+    rate_priors = curve_periods(curves)
+    longest = rate_priors[int(np.argmax([np.ptp(c.t_s) for c in curves]))]
+    try:
+        ranges = [(r.lo_s, r.hi_s) for r in period_ranges(curves, rate_priors)]
+    except PeriodRangeError as e:
+        return BuiltPrior(longest, None, None, None, None, None, f"no usable period in any night ({e}): no prior")
     tgt = get_target(target)
     model = KnownShapeModel.from_target(tgt)
     if model.n_facets > SEARCH_FACETS:  # the search evaluates the model ~10⁵ times: a coarse model within ~1 % (bench_inversion_forward)
         model = model.coarse(SEARCH_FACETS)
-    curves = [from_lightcurve(lc, calibrated=True, name=f"night {k}") for k, lc in enumerate(lightcurves)]
-    ranges = _period_ranges(significant)
     result = invert(curves, model, ranges, rng=rng, progress=progress, axes_T=candidate_axes(tgt.J_diag), n_candidates=4, n_periods_per_pole=2)
     period_range = min(ranges, key=lambda r: abs(np.log(result.best.period_s / np.sqrt(r[0] * r[1]))))  # the range of the best mode
     ip = spin_prior_from_inversion(result, tgt.J_diag, source=f"inversion of {len(curves)} night(s) of {target}")
     tuning_spin = BodyRatePrior.from_rate(ip.rate_rad_s, ip.rate_sigma_rad_s, ip.axis_T, source="best inversion mode")
-    return BuiltPrior(rate_priors[0], period_range, result, ip, ip.prior, tuning_spin, ip.description)
+    return BuiltPrior(longest, period_range, result, ip, ip.prior, tuning_spin, ip.description)
 
 
 def score_prior(built: BuiltPrior, truth: SpinTruth) -> dict:
