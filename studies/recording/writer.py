@@ -35,10 +35,15 @@ def recording(path, *, recording_id: str | None = None, application_id: str = "l
     from a background thread, which on a full disk only logs ``ERROR
     re_log_encoding...`` lines and fails later with "File-writer thread shut down
     prematurely"; here the write's own ``OSError`` (a full disk, a permission)
-    reaches the caller, and nothing is written if the block raises.
+    reaches the caller, and nothing is written if the block raises. With rerun switched off in the environment
+    (``RERUN=off``, rerun's own kill switch) the stream would drop everything: a ``ValueError`` says so before
+    anything is logged.
     """
     path = Path(path)
     rec = rr.RecordingStream(application_id, recording_id=recording_id or str(uuid.uuid4()), send_properties=False)
+    if not rec.is_enabled():
+        raise ValueError(f"{path.name}: rerun is switched off in this environment (RERUN={os.environ.get('RERUN', '')!r}), so no recording "
+                         "can be written: expected RERUN unset (or on)")
     memory = rec.memory_recording()
     try:
         if blueprint is not None:

@@ -254,6 +254,16 @@ def test_full_disk_one_line_naming_the_folder_and_nothing_partial(tiny_fs, lcnav
     assert left == (["ballast", "out"] if command[0] == "lightcurve" else ["ballast"]), left
 
 
+def test_rerun_switched_off_is_named_and_nothing_is_written(tmp_path, capsys, monkeypatch):
+    """``RERUN=off`` (rerun's kill switch) turns every stream into a no-op: a recording asked for is refused by name, not
+    written empty (before 2026-12-02 the blueprint call failed with "No application id found")."""
+    monkeypatch.setenv("RERUN", "off")
+    out = tmp_path / "out"
+    line = refusal(capsys, ["run", "--duration", "10", "--out", out])
+    assert line.startswith("lcnav: error: run.rrd: rerun is switched off in this environment (RERUN='off')"), line
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_full_disk_inside_a_table_writer(tmp_path, capsys, monkeypatch):
     """pyarrow's full-disk error has no errno, only "[errno 28]" in its text: still the folder and "no space left"."""
     def full(self, path, *args, **kwargs):
