@@ -76,7 +76,8 @@ def period_ranges(curves: Sequence, priors: Sequence | None = None) -> list[Peri
         what = f"{name}: single-night period {p.period_s / SECONDS_PER_HOUR:.6g} h ± {100 * h:.2g} % ({p.maxima_per_rotation} maxima per cycle)"
         found.append(PeriodRange(p.period_s / (1 + h), p.period_s / (1 - h), what))
         if p.maxima_per_rotation == 1:
-            found.append(PeriodRange(2 * p.period_s / (1 + h), 2 * p.period_s / (1 - h), what + ", doubled: one maximum per cycle may be half a double-peaked rotation"))
+            doubled = what + ", doubled: one maximum per cycle may be half a double-peaked rotation"
+            found.append(PeriodRange(2 * p.period_s / (1 + h), 2 * p.period_s / (1 - h), doubled))
     if not found:
         raise PeriodRangeError("; ".join(refused))
     merged: list[PeriodRange] = []
