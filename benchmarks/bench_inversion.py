@@ -105,6 +105,25 @@ def modality_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def basin_table(rows: list[dict]) -> str:
+    """68 / 95 % coverage split by where the search ended against the truth (conditioned on the outcome, so not a calibration
+    figure itself: it says where a failing one loses its coverage). *Best mode is the truth's*: the best pole within
+    :data:`~benchmarks.inversion_objects.ALT_POLE_DEG` of the truth, where only the mode's own covariance can hold it; *the
+    truth's mode listed, not best*: the mixture's mode probabilities decide; *not listed*: no listed pole that near the truth,
+    which no region of the listed modes can cover (the search's mode list, not the posterior's shape, failed)."""
+    lines = ["| where the search ended | n | best mode, pole 68 % | best mode, pole 95 % | mixture of modes, pole 68 % | mixture of modes, pole 95 % |",
+             "|---|---|---|---|---|---|"]
+    cases = (("best mode is the truth's", lambda r: r["pole_err_deg"] < ALT_POLE_DEG),
+             ("the truth's mode listed, not best", lambda r: r["pole_err_deg"] >= ALT_POLE_DEG > r["closest_pole_err_deg"]),
+             ("the truth's mode not listed", lambda r: r["closest_pole_err_deg"] >= ALT_POLE_DEG))
+    for label, where in cases:
+        sel = [r for r in rows if where(r)]
+        cells = [_coverage_cell(np.array([r[f"in{int(round(100 * lv))}_pole"] for r in sel], dtype=bool), lv) for lv in LEVELS]
+        cells += [_coverage_cell(np.array([r["mix_level_pole"] <= lv for r in sel], dtype=bool), lv) for lv in LEVELS]
+        lines.append(f"| {label} | {len(sel)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _span_label(lo: float, hi: float) -> str:
     return f"< {hi:.0f}°" if lo == 0 else (f"≥ {lo:.0f}°" if hi >= 180 else f"{lo:.0f}–{hi:.0f}°")
 
@@ -222,7 +241,9 @@ def report(rows: dict, size: Size, header: str) -> str:
               f"{len(facet)} objects (atlas-centaur, vespa, box-wing), 1–{MAX_NIGHTS} nights of ~{size.samples_per_night} samples; the true sidereal period "
               f"was inside the range given on {sum(r['truth_in_range'] for r in facet)} of {len(facet)}.", "",
               coverage_table(facet), "", "By what the search reported (95 % regions; a NaN profile level, the search's optimum "
-              "beaten at the truth's pole, counts as outside):", "", modality_table(facet), "", requirement_line(facet), "",
+              "beaten at the truth's pole, counts as outside):", "", modality_table(facet), "",
+              "By where the search ended against the truth's pole:", "", basin_table(facet), "",
+              requirement_line(facet), "",
               accuracy_table(facet), "", target_table(facet), "", time_line(facet), ""]
     parts += [f"### Mitsuba-rendered objects (model mismatch: the honest rows), {MITSUBA_NIGHTS} nights × ~{size.mitsuba_samples_per_night} samples", "",
               f"{len(mitsuba)} objects.", "", coverage_table(mitsuba), "", accuracy_table(mitsuba), "", target_table(mitsuba), ""]

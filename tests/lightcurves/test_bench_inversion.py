@@ -93,6 +93,19 @@ def test_the_coverage_is_split_by_whether_the_search_listed_another_pole():
     assert table[3].startswith("| several poles (≥ 20° apart) | 4 | 1/4 = 25.0 %") and table[3].count("**over-confident**") == 4
 
 
+def test_the_coverage_is_split_by_where_the_search_ended():
+    """Each object lands in one row by its best and closest poles' errors (20° apart): 10 whose best mode is the truth's, all
+    inside; 3 whose listed second mode is the truth's, 2 inside the mixture's 95 %; 2 whose truth no mode lists, outside both."""
+    best = [{"pole_err_deg": 0.1, "closest_pole_err_deg": 0.1, "in68_pole": i < 7, "in95_pole": True, "mix_level_pole": 0.3} for i in range(10)]
+    listed = [{"pole_err_deg": 178.0, "closest_pole_err_deg": 0.5, "in68_pole": False, "in95_pole": False, "mix_level_pole": 0.9 if i else 0.99}
+              for i in range(3)]
+    missing = [{"pole_err_deg": 90.0, "closest_pole_err_deg": 45.0, "in68_pole": False, "in95_pole": False, "mix_level_pole": 1.0} for _ in range(2)]
+    table = R.basin_table(best + listed + missing).splitlines()
+    assert table[2].startswith("| best mode is the truth's | 10 | 7/10 = 70.0 %") and "10/10 = 100.0 %" in table[2]
+    assert table[3].startswith("| the truth's mode listed, not best | 3 | 0/3") and "2/3 = 66.7 %" in table[3]
+    assert table[4].startswith("| the truth's mode not listed | 2 | 0/2") and table[4].count("0/2") == 4
+
+
 @pytest.mark.slow
 def test_invert_is_not_beaten_by_the_brute_force_grid(atlas):
     """One small object: neither a 15° × 36-phase × 6-axis grid of the same likelihood nor the truth has a lower χ² than invert's best."""
