@@ -13,8 +13,10 @@ Inference and Learning Algorithms*, 2003, ch. 28)
     Z_i ∝ exp(−χ²_i / (2 s)) · √det Σ_i · V,
 
 with the prior volume V the same for every mode (uniform in pole direction and period over the searched
-ranges) and dropped; ``s`` (below) inflates both χ² and Σ when the residuals carry less information than
-independent samples of the stated σ would, so a poor model does not give overconfident odds between modes.
+ranges) and dropped (a comb of cycle-count aliases made one mode by :func:`lightcurves.inversion.search._comb_moments`
+has its teeth's evidences summed: its Z is the lead tooth's times Σ_k W_k there); ``s`` (below) inflates both χ²
+and Σ when the residuals carry less information than independent samples of the stated σ would, so a poor model does
+not give overconfident odds between modes.
 
 How much information the residuals carry
 ----------------------------------------

@@ -46,6 +46,9 @@ the shape's).
    optimum within :data:`REFINE_REACH` of the best — on all data, in the rotation-vector increment of the pole frame,
    the rate, and for a known shape the body axis (its Jacobian analytic: :meth:`_Problem.residuals_and_jacobian`);
    covariances from the Gauss–Newton Hessian of the profiled residuals; modes merged and weighted in :mod:`.posterior`.
+   The most probable modes' combs of cycle-count aliases are then swept across the searched range, and each comb becomes
+   one mode, moment-matched over its teeth, its evidence summed over them (:func:`_comb_moments`): the teeth of one pole
+   can fit alike across the whole range, where one tooth's period σ is a thousandth of what the data know.
 4. On request, the pole's profile likelihood at any pole or over its region (:mod:`.profile`): where the likelihood is a ridge
    or a plateau that the modes' Gaussians do not hold.
 
@@ -72,7 +75,7 @@ from threadpoolctl import threadpool_limits
 from lightcurves.inversion.convex import ConvexModel, fibonacci_sphere
 from lightcurves.inversion.data import InversionCurve
 from lightcurves.inversion.phase_screen import PhaseScreen, screen_phases
-from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities, posterior_scale
+from lightcurves.inversion.posterior import InversionResult, SpinSolution, distinct_modes, laplace_probabilities, posterior_scale, tangent_offset
 from lightcurves.inversion.spin import SpinState, axis_frame, emission_time_s, pole_frame, unspin
 from lightcurves.render import observed_flux
 
@@ -1266,7 +1269,33 @@ def invert(curves: Sequence[InversionCurve], model, period_range_s, *, rng: np.r
     kept = [fit for _, fit in _distinct_within_reach([k for s in searches for k in s.kept], setup.n_free)]
     fits = list(_each(lambda k: _refine(k, data), kept, workers))
     bar.finish()
-    return _posterior(fits, data, model, *_pooled_maps(searches))
+    return _posterior(fits, data, model, *_pooled_maps(searches), ranges, workers)
+
+
+def _combs(fits, states, covs, chi2, logdets, keep, data: _Data, ranges, scale: float, workers: int) -> tuple[list[int], np.ndarray]:
+    """The modes ``keep`` with the :data:`COMB_MAX_FAMILIES` most probable families' combs swept (:func:`_comb_moments`; the
+    lists ``fits``, ``states``, ``covs`` and the array ``chi2`` updated in place): a family is a mode and the less probable
+    modes on its comb (:func:`_comb_family`), whose fits join the sweep's teeth; a swept family becomes one mode. Returns the
+    kept indices and the log comb evidence (n,) of each."""
+    mids = _mid_times(data)
+    spacing = 2 * np.pi / np.ptp(mids) if np.ptp(mids) > 0 else 0.0
+    prob = laplace_probabilities(chi2[keep], np.array(logdets)[keep], scale)
+    families: dict[int, list[int]] = {}
+    for j in np.argsort(-prob):
+        i = keep[j]
+        lead = next((k for k in families if _comb_family(states[k], states[i], spacing)), None)
+        families.setdefault(i, []) if lead is None else families[lead].append(i)
+    log_comb = np.zeros(len(fits))
+    out: list[int] = []
+    for rank, (i, members) in enumerate(families.items()):
+        if rank < COMB_MAX_FAMILIES and prob[keep.index(i)] >= COMB_MIN_PROBABILITY:
+            fits[i], chi2[i], covs[i], log_comb[i] = _comb_moments(fits[i], [(chi2[j], fits[j][0]) for j in members], data, ranges, covs[i],
+                                                                   scale, workers)
+            states[i] = fits[i][0].state(np.zeros(fits[i][0].n))
+            out.append(i)
+        else:
+            out += [i, *members]
+    return out, log_comb
 
 
 def _pooled_maps(searches: list[_RangeSearch]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -1282,8 +1311,112 @@ def _pooled_maps(searches: list[_RangeSearch]) -> tuple[np.ndarray, np.ndarray, 
     return poles[keep], chi2[keep], period[keep]
 
 
-def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> InversionResult:
-    """Covariances, distinct modes and their probabilities from the refined fits (:mod:`.posterior`)."""
+#: Most fits one family's comb (:func:`_comb_moments`) may take: its teeth at n = ±1, ±3, ±9, … (a geometric sweep: the
+#: envelope of χ² over the teeth is smooth, :func:`_alias_trials`); and the evaluations of each.
+COMB_MAX_TEETH = 12
+COMB_TOOTH_EVALUATIONS = 20
+#: Families (modes of one pole, sense and body axis, :func:`_comb_family`) whose comb is swept, most probable first, and the
+#: Laplace probability (before the sweeps) below which a family is not swept.
+COMB_MAX_FAMILIES = 4
+COMB_MIN_PROBABILITY = 1e-3
+
+
+def _comb_offsets(n_lo: int, n_hi: int, max_teeth: int = COMB_MAX_TEETH) -> list[int]:
+    """The teeth n ≠ 0 of [n_lo, n_hi] that a comb sweep fits: ±1, ±3, ±9, … and each end, nearest first, at most ``max_teeth``."""
+    out: set[int] = set()
+    step = 1
+    while step <= max(-n_lo, n_hi, 0):
+        out.update(n for n in (-step, step) if n_lo <= n <= n_hi)
+        step *= 3
+    out.update(n for n in (n_lo, n_hi) if n != 0)
+    return sorted(out, key=lambda n: (abs(n), n))[:max_teeth]
+
+
+def _comb_cells(n_eval: np.ndarray, chi2_eval: np.ndarray, n_lo: int, n_hi: int, scale: float) -> np.ndarray:
+    """The weight (n_eval,) each fitted tooth stands for: every tooth n of [n_lo, n_hi] weighs exp(−(χ²(n) − χ²_min)/(2 s)),
+    χ²(n) interpolated linearly in n between the fitted teeth, and counts for the fitted tooth nearest to it."""
+    order = np.argsort(n_eval)
+    n_eval, chi2_eval = n_eval[order], chi2_eval[order]
+    n_all = np.arange(n_lo, n_hi + 1)
+    chi2_all = np.interp(n_all, n_eval, chi2_eval)
+    w_all = np.exp(-0.5 * (chi2_all - chi2_eval.min()) / scale)
+    nearest = np.clip(np.searchsorted(0.5 * (n_eval[1:] + n_eval[:-1]), n_all), 0, n_eval.size - 1)
+    cells = np.bincount(nearest, w_all, n_eval.size)
+    out = np.empty_like(cells)
+    out[order] = cells
+    return out
+
+
+def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data, ranges, cov: np.ndarray, scale: float, workers: int
+                  ) -> tuple[tuple, float, np.ndarray, float]:
+    """The cycle-count comb of one mode: (its lowest fit, χ² there, covariance (3, 3) of (t₁, t₂, P) over the comb, log of the
+    comb's evidence relative to that tooth's). ``members``: (χ², fit) of other modes on the comb, taken as fitted teeth.
+
+    Nights days apart leave teeth ω + 2π n/Δt (Δt the spread of the curves' mid-times) that the data tell apart only by
+    each night's own phase drift, whose χ² envelope over n can be flat across the whole searched range: on a three-night
+    atlas-centaur of ``benchmarks/bench_inversion.py`` (schedule index 147, range −1.8 … +2.2 % of the true period) the 45
+    teeth of the truth's pole and sense all lie within χ² 375.4–376.9, yet one tooth's period σ is 1.7e-5 P, and the truth's
+    tooth was not among the modes. So the teeth of :func:`_comb_offsets` within the range that holds the mode are fitted
+    (``COMB_TOOTH_EVALUATIONS`` each, from the mode's state carried to the tooth as in :func:`_alias_trials`), the
+    comb's other teeth get χ² by linear interpolation in n (:func:`_comb_cells`), and the mode becomes the Gaussian
+    moment-matched to the comb about its lowest tooth: Σ = Σ_k W_k (Σ_0 + d_k d_kᵀ) / Σ_k W_k, d_k the tooth's (pole
+    tangent offset, ΔP), W_k its cell's weight; its Laplace evidence is multiplied by Σ_k W_k (every tooth's covariance
+    taken as the mode's own).
+    """
+    problem, chi2 = fit[0], fit[2]
+    mids = _mid_times(data)
+    if np.ptp(mids) <= 0:
+        return fit, chi2, cov, 0.0
+    spacing = 2 * np.pi / np.ptp(mids)
+    period = 2 * np.pi / problem.omega0
+    lo, hi = min(ranges, key=lambda r: 0.0 if r[0] <= period <= r[1] else min(abs(period - r[0]), abs(period - r[1])))
+    n_lo = int(np.ceil((2 * np.pi / hi - problem.omega0) / spacing))
+    n_hi = int(np.floor((2 * np.pi / lo - problem.omega0) / spacing))
+    known = {int(round((m.omega0 - problem.omega0) / spacing)): (c, m) for c, m in members}
+    offsets = [n for n in _comb_offsets(min(n_lo, 0), max(n_hi, 0)) if n not in known and n != 0]
+    if not offsets and not known:
+        return fit, chi2, cov, 0.0
+
+    def tooth(n: int) -> tuple[float, _Problem]:
+        d_omega = n * spacing
+        start = problem.C_IP0 @ Rotation.from_rotvec([0.0, 0.0, _alias_phase_shift(data, d_omega)]).as_matrix()
+        moved, c = _fit(_Problem(data, problem.model, start, problem.omega0 + d_omega, problem.C_TA0, problem.fit_phase, problem.fit_axis),
+                        COMB_TOOTH_EVALUATIONS)
+        return c, moved
+
+    known.pop(0, None)  # a member on the mode's own tooth (distinct_modes kept both): the mode's fit stands for it
+    teeth = [(chi2, problem)] + list(known.values()) + list(_each(tooth, offsets, workers))
+    n_eval = np.array([0, *known, *offsets])
+    chi2_eval = np.array([c for c, _ in teeth])
+    ok = np.array([t.omega0 > 0 for _, t in teeth])
+    n_eval, chi2_eval, teeth = n_eval[ok], chi2_eval[ok], [t for t, keep in zip(teeth, ok) if keep]
+    cells = _comb_cells(n_eval, chi2_eval, min(n_lo, 0, *n_eval), max(n_hi, 0, *n_eval), scale)
+    lead = int(np.argmin(chi2_eval))
+    if lead != 0:  # a tooth lower than the mode's own: the comb is centred there, its covariance taken as the mode's
+        moved = teeth[lead][1]
+        w, sc, r = moved.solve(np.zeros(moved.n))
+        fit = (moved, fit[1], float(r @ r), w, sc)
+    centre = teeth[lead][1].state(np.zeros(teeth[lead][1].n))
+    d = np.array([np.append(tangent_offset(centre.pole_I, t.state(np.zeros(t.n)).pole_I), 2 * np.pi / t.omega0 - centre.period_s)
+                  for _, t in teeth])
+    W = cells / cells.sum()
+    moments = cov + np.einsum("k,ki,kj->ij", W, d, d)
+    return fit, fit[2], 0.5 * (moments + moments.T), float(np.log(cells.sum()))  # the cells' weights are relative to the lead's
+
+
+def _comb_family(a: SpinState, b: SpinState, spacing: float) -> bool:
+    """Two modes on one comb (:func:`_comb_moments`): poles within 10°, the same body axis within 10°, rates a whole number
+    of teeth apart (within a quarter tooth)."""
+    if spacing <= 0:
+        return False
+    k = (b.rate_rad_s - a.rate_rad_s) / spacing
+    close = np.cos(np.radians(10.0))
+    return bool(a.pole_I @ b.pole_I > close and np.asarray(a.axis_T) @ np.asarray(b.axis_T) > close and abs(k - round(k)) < 0.25)
+
+
+def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s, ranges, workers: int) -> InversionResult:
+    """Covariances, distinct modes and their probabilities from the refined fits (:mod:`.posterior`); the most probable
+    modes' cycle-count combs swept over the searched ``ranges`` and each comb made one mode (:func:`_comb_moments`)."""
     chi2 = np.array([f[2] for f in fits])
     best = int(np.argmin(chi2))
     n_linear = int(np.count_nonzero(fits[best][3])) + int(data.relative.sum()) - int((~data.relative).sum() == 0)
@@ -1301,7 +1434,8 @@ def _posterior(fits, data: _Data, model, poles, chi2_map, period_map_s) -> Inver
         covs.append(cov)
         extras.append((phase_sigma, axis_sigma))
     keep = distinct_modes([s.pole_I for s in states], [s.period_s for s in states], chi2, covs)
-    prob = laplace_probabilities(chi2[keep], np.array(logdets)[keep], scale)
+    keep, log_comb = _combs(fits, states, covs, chi2, logdets, keep, data, ranges, scale, workers)
+    prob = laplace_probabilities(chi2[keep] - 2.0 * scale * log_comb[keep], np.array(logdets)[keep], scale)
     sols = [SpinSolution(states[i], covs[i], extras[i][0], extras[i][1], float(chi2[i]), float(p), fits[i][3], fits[i][4]) for i, p in zip(keep, prob)]
     sols.sort(key=lambda s: -s.probability)
     return InversionResult(tuple(sols), int(dof), float(scale), model, data.epoch, poles, chi2_map, period_map_s, correlation_time=float(kappa),
