@@ -1289,8 +1289,9 @@ def _combs(fits, states, covs, chi2, logdets, keep, data: _Data, ranges, scale: 
     out: list[int] = []
     for rank, (i, members) in enumerate(families.items()):
         if rank < COMB_MAX_FAMILIES and prob[keep.index(i)] >= COMB_MIN_PROBABILITY:
-            fits[i], chi2[i], covs[i], log_comb[i] = _comb_moments(fits[i], [(chi2[j], fits[j][0]) for j in members], data, ranges, covs[i],
-                                                                   scale, workers)
+            fits[i], covs[i], log_comb[i] = _comb_moments(fits[i], [(chi2[j], fits[j][0]) for j in members], data, spacing, ranges, covs[i],
+                                                          scale, workers)
+            chi2[i] = fits[i][2]
             states[i] = fits[i][0].state(np.zeros(fits[i][0].n))
             out.append(i)
         else:
@@ -1347,10 +1348,11 @@ def _comb_cells(n_eval: np.ndarray, chi2_eval: np.ndarray, n_lo: int, n_hi: int,
     return out
 
 
-def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data, ranges, cov: np.ndarray, scale: float, workers: int
-                  ) -> tuple[tuple, float, np.ndarray, float]:
-    """The cycle-count comb of one mode: (its lowest fit, χ² there, covariance (3, 3) of (t₁, t₂, P) over the comb, log of the
-    comb's evidence relative to that tooth's). ``members``: (χ², fit) of other modes on the comb, taken as fitted teeth.
+def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data, spacing: float, ranges, cov: np.ndarray, scale: float,
+                  workers: int) -> tuple[tuple, np.ndarray, float]:
+    """The cycle-count comb of one mode: (its lowest fit, covariance (3, 3) of (t₁, t₂, P) over the comb, log of the comb's
+    evidence relative to that tooth's). ``members``: (χ², fit) of other modes on the comb, taken as fitted teeth; ``spacing``
+    the teeth's, rad/s (0: one curve's mid-time, no comb).
 
     Nights days apart leave teeth ω + 2π n/Δt (Δt the spread of the curves' mid-times) that the data tell apart only by
     each night's own phase drift, whose χ² envelope over n can be flat across the whole searched range: on a three-night
@@ -1364,10 +1366,8 @@ def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data
     taken as the mode's own).
     """
     problem, chi2 = fit[0], fit[2]
-    mids = _mid_times(data)
-    if np.ptp(mids) <= 0:
-        return fit, chi2, cov, 0.0
-    spacing = 2 * np.pi / np.ptp(mids)
+    if spacing <= 0:
+        return fit, cov, 0.0
     period = 2 * np.pi / problem.omega0
     lo, hi = min(ranges, key=lambda r: 0.0 if r[0] <= period <= r[1] else min(abs(period - r[0]), abs(period - r[1])))
     n_lo = int(np.ceil((2 * np.pi / hi - problem.omega0) / spacing))
@@ -1375,7 +1375,7 @@ def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data
     known = {int(round((m.omega0 - problem.omega0) / spacing)): (c, m) for c, m in members}
     offsets = [n for n in _comb_offsets(min(n_lo, 0), max(n_hi, 0)) if n not in known and n != 0]
     if not offsets and not known:
-        return fit, chi2, cov, 0.0
+        return fit, cov, 0.0
 
     def tooth(n: int) -> tuple[float, _Problem]:
         d_omega = n * spacing
@@ -1401,7 +1401,7 @@ def _comb_moments(fit: tuple, members: list[tuple[float, _Problem]], data: _Data
                   for _, t in teeth])
     W = cells / cells.sum()
     moments = cov + np.einsum("k,ki,kj->ij", W, d, d)
-    return fit, fit[2], 0.5 * (moments + moments.T), float(np.log(cells.sum()))  # the cells' weights are relative to the lead's
+    return fit, 0.5 * (moments + moments.T), float(np.log(cells.sum()))  # the cells' weights are relative to the lead's
 
 
 def _comb_family(a: SpinState, b: SpinState, spacing: float) -> bool:
