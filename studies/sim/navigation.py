@@ -40,7 +40,7 @@ from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, initiali
 from estimators.state import DW_ST_T, ERROR_GROUPS, K, K_STATES, N_ERROR, N_STATE, Q_TS
 from estimators.tuning import Tuning
 from perception.simulated_pose import parse_faults, simulate_pose_measurements
-from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, evaluate, filter_sigmas, fraction_in_band, late_rmse, nees, state_errors
+from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, conditional_nees, evaluate, filter_sigmas, fraction_in_band, late_rmse, nees, state_errors
 from studies.sim.truth import Truth, simulate_truth
 
 
@@ -267,7 +267,9 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     ``nees_in_band_from_start`` (the same over every step after ``t[0]``, settling included),
     ``nees_per_dof`` with its t interval over runs (``_lo``/``_hi``),
     ``nees_per_dof_worst_run``, ``nees_per_dof_<group>`` (each block of :data:`estimators.state.ERROR_GROUPS` alone, its
-    own NEES/dof averaged over runs and steps: which block the joint figure's excess comes from); per source ``nis_<s>_in_band``, ``nis_<s>_per_dof``
+    own NEES/dof averaged over runs and steps: which block the joint figure's excess comes from), ``nees_per_dof_<group>_given_rest``
+    (that block's NEES/dof given the other tested states' errors, :func:`studies.sim.metrics.conditional_nees`: whether ``P``
+    states how the blocks' errors move together; a joint figure below the blocks' comes from there); per source ``nis_<s>_in_band``, ``nis_<s>_per_dof``
     (t interval), ``gate_<s>_rejected`` (rate above the one-sided bound, Wilson
     interval, nominal ``1 − gate_confidence``) and ``nis_<s>_low`` (rate below the
     lower two-sided bound, nominal ``(1 − gate_confidence)/2``: counted, never rejected).
@@ -286,6 +288,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     blocks = {g: np.intersect1d(np.arange(N_ERROR)[sl], states) for g, sl in ERROR_GROUPS.items()}
     blocks = {g: idx for g, idx in blocks.items() if len(idx)}
     E_block = {g: [] for g in blocks}
+    E_given = {g: [] for g in blocks}
     diverged = regularized = 0
     for i in range(n_runs):
         try:
@@ -299,6 +302,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
         E.append(E_all[-1][sel[1:]])
         for g, idx in blocks.items():
             E_block[g].append(np.mean(nees(run.x[sel], run.P[sel], tr_i.x[sel], idx)) / len(idx))
+            E_given[g].append(np.mean(conditional_nees(run.x[sel], run.P[sel], tr_i.x[sel], idx, states)) / len(idx))
         for s in SOURCES:
             nis[s].append(run.nis[s][sel])
     if not E:
@@ -317,7 +321,8 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
            "nees_above": float(np.mean(avg > hi)), "nees_in_band_from_start": float(np.mean((avg_all >= lo) & (avg_all <= hi))),
            "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo,
            "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(per_run.max()),
-           **{f"nees_per_dof_{g}": float(np.mean(v)) for g, v in E_block.items()}}
+           **{f"nees_per_dof_{g}": float(np.mean(v)) for g, v in E_block.items()},
+           **{f"nees_per_dof_{g}_given_rest": float(np.mean(v)) for g, v in E_given.items()}}
     upper = chi2.ppf(gate_confidence, 3)
     lower = chi2.ppf(0.5 * (1.0 - gate_confidence), 3)
     for s in SOURCES:

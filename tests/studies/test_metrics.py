@@ -71,3 +71,47 @@ def test_nees_of_drawn_errors_is_chi_square_and_band_holds():
     assert M.fraction_in_band(1.2 * e, 14) < 0.5
     # a subset of states has its own degrees of freedom
     assert np.mean(M.nees(x_est, np.broadcast_to(P * 1e-4, (30, 400, 14, 14)), x_true, states=np.arange(12))) == pytest.approx(12.0, rel=0.03)
+
+
+def test_conditional_nees_is_chi_square_when_p_is_right_and_finds_misstated_correlations():
+    """Eq. (1) of ``conditional_nees``: χ²(len(block)) under the filter's own Gaussian; for two unit-variance states that
+    ``P`` says correlate by ``r`` while the errors correlate by ``ρ``, its mean is ``(1 − 2 r ρ + r²)/(1 − r²)`` (both
+    marginal NEES stay 1)."""
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(14, 14))
+    P = A @ A.T + 3 * np.eye(14)
+    n = 20000
+    x_est = np.tile(np.r_[1.0, np.zeros(14)], (n, 1))
+    x_est[:, Q_TS] = rotvec_to_quat(rng.normal(size=(n, 3)) * 0.3)
+    dx = rng.normal(size=(n, 14)) @ np.linalg.cholesky(P).T * 1e-2
+    x_true = boxplus(x_est, dx)
+    Pn = np.broadcast_to(P * 1e-4, (n, 14, 14))
+    for block in (np.arange(3, 6), np.arange(12, 14), np.array([0, 9])):
+        e = M.conditional_nees(x_est, Pn, x_true, block)
+        lo, hi = chi2.ppf([0.0005, 0.9995], n * len(block)) / n
+        assert lo <= e.mean() <= hi, (block, e.mean())
+    # within a subset of the states, the rest is that subset's other states
+    e = M.conditional_nees(x_est, Pn, x_true, np.arange(3, 6), states=np.arange(12))
+    assert chi2.ppf(0.0005, 3 * n) / n <= e.mean() <= chi2.ppf(0.9995, 3 * n) / n
+    # misstated correlation: r claimed, rho actual (w_x and w_y; the other states independent, unit variance)
+    r, rho = 0.5, 0.9
+    C = np.eye(14)
+    C[3, 4] = C[4, 3] = rho
+    dx = rng.normal(size=(n, 14)) @ np.linalg.cholesky(C).T * 1e-2
+    x_true = boxplus(x_est, dx)
+    Pc = np.eye(14)
+    Pc[3, 4] = Pc[4, 3] = r
+    Pn = np.broadcast_to(Pc * 1e-4, (n, 14, 14))
+    e = M.conditional_nees(x_est, Pn, x_true, [3])
+    expected = (1 - 2 * r * rho + r**2) / (1 - r**2)  # 0.467
+    assert e.mean() == pytest.approx(expected, rel=0.05)
+    assert np.mean(M.nees(x_est, Pn, x_true, states=[3])) == pytest.approx(1.0, rel=0.05)
+
+
+def test_conditional_nees_rejects_a_block_outside_the_tested_states():
+    P = np.broadcast_to(np.eye(14), (2, 14, 14))
+    x = np.tile(np.r_[1.0, np.zeros(14)], (2, 1))
+    with pytest.raises(ValueError, match="proper subset"):
+        M.conditional_nees(x, P, x, [12], states=np.arange(12))
+    with pytest.raises(ValueError, match="proper subset"):
+        M.conditional_nees(x, P, x, np.arange(14))
