@@ -405,7 +405,7 @@ TRUTH_KEYS = ("components", "nees_fraction_in_95", "filter_components", "compone
 def _truth_metrics(setup: RunSetup, results: list, sel: np.ndarray) -> dict:
     """The truth-based part of metrics.json: §6 metrics of the first run and their means over the runs, NEES in band."""
     from estimators.state import DK, N_ERROR
-    from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, nees
+    from studies.sim.metrics import GROUPS, SETTLING_S, block_nees_per_dof, chi_square_band, nees
 
     tr = setup.truth
     states = np.arange(DK.start) if setup.nav.consider else np.arange(N_ERROR)
@@ -413,12 +413,16 @@ def _truth_metrics(setup: RunSetup, results: list, sel: np.ndarray) -> dict:
     lo, hi = chi_square_band(len(states), setup.runs, 0.95)
     avg = E[:, sel].mean(axis=0)
     m0 = results[0][2]
+    blocks = [block_nees_per_dof(r.x[sel], r.P[sel], tr.x[sel], states) for r, _, _ in results] if sel.any() else []
+    per_dof = {"per_dof": _num(float(avg.mean()) / len(states)),
+               "per_dof_alone": {g: _num(float(np.mean([b[0][g] for b in blocks]))) for g in blocks[0][0]},
+               "per_dof_given_rest": {g: _num(float(np.mean([b[1][g] for b in blocks]))) for g in blocks[0][1]}} if blocks else {}
     return {
         "components": _metrics_dict(m0["state"]),
         "nees_fraction_in_95": _num(float(np.mean((avg >= lo) & (avg <= hi))) if avg.size else float("nan")),
         "filter_components": _metrics_dict(m0["filter"]),
         "components_mean_over_runs": {g: {k: _mean_over_runs(results, g, k) for k in ("convergence_time_s", "steady_state_rmse")} for g in GROUPS},
-        "nees": {"dof": int(len(states)), "from_s": float(SETTLING_S), "band_95": [lo, hi], "runs": setup.runs},
+        "nees": {"dof": int(len(states)), "from_s": float(SETTLING_S), "band_95": [lo, hi], "runs": setup.runs, **per_dof},
     }
 
 
@@ -464,6 +468,13 @@ def summary_lines(metrics: dict) -> list[str]:
         n = metrics["nees"]
         lines.append(f"  from t >= {n['from_s']:g} s: NEES in its 95 % band on {pct(metrics['nees_fraction_in_95'])} of the steps "
                      f"({n['dof']} dof); {nis_text}")
+        if n.get("per_dof_alone"):  # metrics.json written before 2026-12-03 has no per-block figures
+
+            def fig(v):
+                return "–" if v is None else f"{v:.2f}"
+
+            lines.append(f"  NEES/dof {fig(n['per_dof'])}; each block alone {', '.join(f'{g} {fig(v)}' for g, v in n['per_dof_alone'].items())}; "
+                         f"given the other blocks {', '.join(f'{g} {fig(v)}' for g, v in n['per_dof_given_rest'].items())}")
     else:
         lines.append(f"  no truth to score against (--measurements without --truth-file); from t >= {SETTLING_S:g} s {nis_text}")
     lines.append(f"  gates (confidence {cfg['gate_confidence']}): rejected {', '.join(f'{s} {pct(v, 1)}' for s, v in gate.items())}"

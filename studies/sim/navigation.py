@@ -37,10 +37,11 @@ from estimators.measurement import PoseNoise
 from estimators.perturbations import get_truth_physics
 from estimators.navigation import FILTERS, SOURCES, NavigationRun, run_navigation
 from estimators.prior import PROXY_MODES, R_OMEGA_PROXY, BodyRatePrior, initialize_with_prior
-from estimators.state import DW_ST_T, ERROR_GROUPS, K, K_STATES, N_ERROR, N_STATE, Q_TS
+from estimators.state import DW_ST_T, K, K_STATES, N_ERROR, N_STATE, Q_TS
 from estimators.tuning import Tuning
 from perception.simulated_pose import parse_faults, simulate_pose_measurements
-from studies.sim.metrics import GROUPS, SETTLING_S, chi_square_band, conditional_nees, evaluate, filter_sigmas, fraction_in_band, late_rmse, nees, state_errors
+from studies.sim.metrics import (GROUPS, SETTLING_S, block_nees_per_dof, chi_square_band, evaluate, filter_sigmas, fraction_in_band, late_rmse, nees,
+                                 state_errors)
 from studies.sim.truth import Truth, simulate_truth
 
 
@@ -285,10 +286,7 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
     if not sel.any():
         raise ValueError(f"settling_s ({settling_s} s) must be shorter than the run ({tr.t[-1] - tr.t[0]} s)")
     E, E_all, nis = [], [], {s: [] for s in SOURCES}
-    blocks = {g: np.intersect1d(np.arange(N_ERROR)[sl], states) for g, sl in ERROR_GROUPS.items()}
-    blocks = {g: idx for g, idx in blocks.items() if len(idx)}
-    E_block = {g: [] for g in blocks}
-    E_given = {g: [] for g in blocks}
+    E_block, E_given = [], []
     diverged = regularized = 0
     for i in range(n_runs):
         try:
@@ -300,9 +298,9 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
         regularized += run.regularizations
         E_all.append(nees(run.x, run.P, tr_i.x, states)[1:])
         E.append(E_all[-1][sel[1:]])
-        for g, idx in blocks.items():
-            E_block[g].append(np.mean(nees(run.x[sel], run.P[sel], tr_i.x[sel], idx)) / len(idx))
-            E_given[g].append(np.mean(conditional_nees(run.x[sel], run.P[sel], tr_i.x[sel], idx, states)) / len(idx))
+        alone, given = block_nees_per_dof(run.x[sel], run.P[sel], tr_i.x[sel], states)
+        E_block.append(alone)
+        E_given.append(given)
         for s in SOURCES:
             nis[s].append(run.nis[s][sel])
     if not E:
@@ -321,8 +319,8 @@ def consistency_check(tr: Truth, filter_name: str, tuning: Tuning, *, n_runs: in
            "nees_above": float(np.mean(avg > hi)), "nees_in_band_from_start": float(np.mean((avg_all >= lo) & (avg_all <= hi))),
            "nees_per_dof": iv.estimate, "nees_per_dof_lo": iv.lo,
            "nees_per_dof_hi": iv.hi, "nees_per_dof_worst_run": float(per_run.max()),
-           **{f"nees_per_dof_{g}": float(np.mean(v)) for g, v in E_block.items()},
-           **{f"nees_per_dof_{g}_given_rest": float(np.mean(v)) for g, v in E_given.items()}}
+           **{f"nees_per_dof_{g}": float(np.mean([b[g] for b in E_block])) for g in E_block[0]},
+           **{f"nees_per_dof_{g}_given_rest": float(np.mean([b[g] for b in E_given])) for g in E_given[0]}}
     upper = chi2.ppf(gate_confidence, 3)
     lower = chi2.ppf(0.5 * (1.0 - gate_confidence), 3)
     for s in SOURCES:

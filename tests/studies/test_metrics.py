@@ -115,3 +115,22 @@ def test_conditional_nees_rejects_a_block_outside_the_tested_states():
         M.conditional_nees(x, P, x, [12], states=np.arange(12))
     with pytest.raises(ValueError, match="proper subset"):
         M.conditional_nees(x, P, x, np.arange(14))
+
+
+def test_joint_nees_is_a_block_alone_plus_the_rest_given_it():
+    """The chain rule of the Gaussian: ``eᵀ P⁻¹ e = e_aᵀ P_aa⁻¹ e_a + ε_b|a`` for a partition ``a ∪ b`` of the tested states,
+    whatever ``P`` and the errors (here errors that do not follow ``P``); ``block_nees_per_dof`` gives each block alone and
+    given the rest, as NEES/dof."""
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(14, 14))
+    P = np.broadcast_to(A @ A.T + 2 * np.eye(14), (50, 14, 14)) * 1e-4
+    x_est = np.tile(np.r_[1.0, np.zeros(14)], (50, 1))
+    x_true = boxplus(x_est, rng.standard_t(3, size=(50, 14)) * 1e-2)
+    a, b = np.arange(0, 6), np.arange(6, 14)
+    joint = M.nees(x_est, P, x_true)
+    assert np.allclose(joint, M.nees(x_est, P, x_true, a) + M.conditional_nees(x_est, P, x_true, b))
+    assert np.allclose(joint, M.nees(x_est, P, x_true, b) + M.conditional_nees(x_est, P, x_true, a))
+    alone, given = M.block_nees_per_dof(x_est, P, x_true, states=np.arange(12))
+    assert list(alone) == list(given) == ["q", "w", "r", "v"]  # k is not among the tested states
+    assert alone["v"] == pytest.approx(np.mean(M.nees(x_est, P, x_true, np.arange(9, 12))) / 3)
+    assert given["q"] == pytest.approx(np.mean(M.conditional_nees(x_est, P, x_true, np.arange(3), np.arange(12))) / 3)

@@ -34,6 +34,7 @@ def test_run_writes_metrics_states_and_recording(tmp_path, capsys):
     assert m["nees_fraction_in_95"] is None or 0.0 <= m["nees_fraction_in_95"] <= 1.0
     assert set(m["nis_fraction_in_95"]) == {"attitude", "position"}
     assert m["nees"]["runs"] == 2 and m["nees"]["dof"] == 12  # k considered, not estimated, in SC1
+    assert "per_dof_alone" not in m["nees"]  # 40 s: no step after the 60-s settling time to average
     assert m["config"]["tuning"] == "fixed-lag-torque-free"  # the torque-free world's default, with a prior too (estimators.tuning.DEFAULT_TUNINGS)
     np.testing.assert_allclose(m["config"]["prior_w_T_T_rad_s"], [0.0, 0.0, 0.0525])
     df = pd.read_parquet(out / "states.parquet")
@@ -169,6 +170,12 @@ def test_measurement_file_is_scored_only_against_its_truth_file(tmp_path, capsys
     assert main([*base, "--truth-file", str(truth_file), "--out", str(tmp_path / "scored")]) == 0
     m = json.loads((tmp_path / "scored" / "metrics.json").read_text())
     assert m["nees"]["dof"] == 12 and m["config"]["scored_against"] == str(truth_file)
+    # the 11 steps after the settling time: NEES/dof of each block alone and given the other blocks (k considered in SC1)
+    n = m["nees"]
+    assert set(n["per_dof_alone"]) == set(n["per_dof_given_rest"]) == {"q", "w", "r", "v"}
+    assert all(v > 0 for v in [n["per_dof"], *n["per_dof_alone"].values(), *n["per_dof_given_rest"].values()])
+    line = next(line for line in capsys.readouterr().out.splitlines() if "given the other blocks" in line)
+    assert f"NEES/dof {n['per_dof']:.2f}" in line and f"q {n['per_dof_given_rest']['q']:.2f}" in line
     df = pd.read_parquet(tmp_path / "scored" / "states.parquet")
     truth = pd.read_parquet(truth_file).set_index("t_s")
     # the true_* columns are the truth file's rows at the filter's times (every second row of a 0.5 s truth)
