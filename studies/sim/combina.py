@@ -151,7 +151,7 @@ ROLL_WINDOW = 5
 #: which leaves 2.60e-16 rad²/s³ on the box-wing (3e-10 rad/s² RMS: the nutation damping and the target's offset from the
 #: chaser) and 1.70e-14 on the rocket body; without it (2026-11-29) 1.38e-12 and 4.93e-11 (the gravity gradient, 6e-8 and
 #: 5.2e-7 rad/s²). The small budget became usable once the refits of :class:`estimators.combina.acquisition.LearningRefits`
-#: mended most of the UKF's own over-confidence while it learns ``k`` (README, issue 31). The rocket body's axisymmetric filter
+#: mended most of the UKF's own over-confidence while it learns ``k`` (`docs/known-limitations.md`, issue 31). The rocket body's axisymmetric filter
 #: in orbit (:class:`estimators.combina.axisymmetric.AxisymmetricOrbitUKF`) has the same gravity gradient in its model and
 #: takes the same residual (:func:`estimators.combina.axisymmetric.orbit_process_noise`).
 COMBINA_BUDGETS = {

@@ -176,7 +176,7 @@ def test_refits_mend_most_of_the_ukfs_over_confidence_while_it_learns_k():
     """On its own model with no process noise (:func:`_learning_run`, 30 seeds, 450 epochs = 1360 s, while ``k``'s 1-σ falls
     from 0.3 to ~0.05) the plain UKF's NEES at the last epoch is far above χ²₈ (its sum over the seeds beyond the 99.5 %
     quantile of χ²₂₄₀; measured 4.5 per state): the bug the refits mend. With :class:`LearningRefits` the sum is less than
-    half of it (measured 1.4 per state: still above the band between two refits, the last one at 256 epochs, README)."""
+    half of it (measured 1.4 per state: still above the band between two refits, the last one at 256 epochs, `docs/known-limitations.md`)."""
     from scipy.stats import chi2
 
     plain = [_learning_run(seed, False, 450) for seed in range(30)]

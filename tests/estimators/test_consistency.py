@@ -33,7 +33,7 @@ over-confident in some runs (mean NEES/dof 1.07–1.42 for the EKF, 0.96–1.29
 for the UKF on the six sets, against 0.89–1.06 for the exact filter on the
 same draws): a rate
 error along the spin axis reaches the positions only through second-order
-terms (README, "Known limitations").
+terms (`docs/known-limitations.md`).
 """
 
 import numpy as np

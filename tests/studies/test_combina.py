@@ -216,7 +216,7 @@ def test_filters_on_the_torque_free_truth_without_process_noise(asym):
     filter's per-step NEES lies in its 95 % band on ≥ 92 % of the steps after the first 0.3 of a 2-TU run, pooled over 10 seeds
     (measured 95.8 %), ≤ 5 % above it. The attitude filter, restarted from refits of its initial state while it learns ``k``
     (:class:`estimators.combina.acquisition.LearningRefits`), ≥ 80 % in band and ≤ 15 % above (measured 87.7 % and 7.2 %):
-    over-confident while ``k`` is still uncertain (README, issue 31). It used to carry the perturbed world's budget,
+    over-confident while ``k`` is still uncertain (`docs/known-limitations.md`, issue 31). It used to carry the perturbed world's budget,
     1.38e-12 rad²/s³, which covered a torque that is not there: conservative (26 % of the steps below the band)."""
     band = _nees_in_band([run for run, _ in asym])
     assert band["translation"][0] >= 0.92 and band["translation"][1] <= 0.05, band
